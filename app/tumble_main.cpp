@@ -1,0 +1,10 @@
+// The `tumble` program: the engine's command line with the built-in systems registered.
+
+#include "engine/cli.h"
+#include "systems/builtin.h"
+
+int main(int argc, char** argv) {
+    tumble::Catalog catalog;
+    tumble::registerBuiltinSystems(catalog);
+    return tumble::runCli(argc, argv, catalog);
+}

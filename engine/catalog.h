@@ -1,0 +1,88 @@
+#pragma once
+// The catalog is how systems plug into the engine without the engine knowing them by name: the systems
+// library registers its component loaders (scenario keys), state codecs (dump and hash), event actions and
+// systems here, and the engine drives them through these entries alone.
+
+#include "engine/hash.h"
+#include "engine/json.h"
+#include "engine/phase.h"
+#include "engine/scene.h"
+#include "engine/schedule.h"
+#include "engine/table_reader.h"
+#include "engine/world.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace tumble {
+
+/// Reads `[entity.KEY]` and puts the resulting components on the entity.
+struct ComponentLoader {
+    std::string key;     ///< the scenario key, e.g. "springs"
+    std::string summary; ///< one line for messages and --help
+    std::function<void(TableReader& reader, World& world, Entity entity, const SceneDef& scene)> load;
+};
+
+/// How one component type appears in dumps and in the state hash.
+struct StateCodec {
+    std::string kind;    ///< the dump's "kind" field
+    std::function<bool(const World&, Entity)> has;
+    /// Writes the entity's fields (after "kind") into an open JSON object.
+    std::function<void(const World&, Entity, JsonWriter&)> dump;
+    /// Feeds every simulated byte of the component to the hasher.
+    std::function<void(const World&, Entity, Hasher&)> hash;
+};
+
+/// An event action on entities that have some component.
+struct EventAction {
+    std::string action;  ///< e.g. "impulse"
+    std::string needs;   ///< what the entity must be, for messages, e.g. "a springs entity"
+    std::function<bool(const World&, Entity)> appliesTo;
+    /// Load-time check of the event's fields; returns a message when they do not fit.
+    std::function<std::optional<std::string>(const World&, Entity, const EventDef&)> check;
+    std::function<void(World&, Entity, const EventDef&)> apply;
+};
+
+/// A system and the phase it runs in; systems of a phase run in registration order.
+struct SystemEntry {
+    Phase phase;
+    std::string name;
+    SystemFn fn;
+};
+
+/// Everything the systems library registers; see the header comment.
+class Catalog {
+public:
+    void addComponent(ComponentLoader loader) { m_components.push_back(std::move(loader)); }
+    void addState(StateCodec codec) { m_states.push_back(std::move(codec)); }
+    void addEventAction(EventAction action) { m_actions.push_back(std::move(action)); }
+    void addSystem(Phase phase, std::string name, SystemFn fn) {
+        m_systems.push_back({phase, std::move(name), std::move(fn)});
+    }
+
+    /// A state codec for component type T from a dump and a hash function of the component.
+    template <class T>
+    void addState(std::string kind, std::function<void(const T&, JsonWriter&)> dump,
+                  std::function<void(const T&, Hasher&)> hash) {
+        addState(StateCodec{
+            std::move(kind), [](const World& w, Entity e) { return w.has<T>(e); },
+            [dump](const World& w, Entity e, JsonWriter& out) { dump(w.get<T>(e), out); },
+            [hash](const World& w, Entity e, Hasher& h) { hash(w.get<T>(e), h); }});
+    }
+
+    const ComponentLoader* findComponent(std::string_view key) const;
+    std::vector<std::string> componentKeys() const;
+    const std::vector<StateCodec>& states() const { return m_states; }
+    const std::vector<EventAction>& actions() const { return m_actions; }
+    const std::vector<SystemEntry>& systems() const { return m_systems; }
+
+private:
+    std::vector<ComponentLoader> m_components;
+    std::vector<StateCodec> m_states;
+    std::vector<EventAction> m_actions;
+    std::vector<SystemEntry> m_systems;
+};
+
+} // namespace tumble

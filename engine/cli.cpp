@@ -1,0 +1,316 @@
+#include "engine/cli.h"
+
+#include "engine/progress.h"
+#include "engine/simulation.h"
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <optional>
+
+namespace tumble {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+
+extern "C" void onInterrupt(int) {
+    g_interrupted.store(true);
+}
+
+/// Writes a whole file, making its folder; throws std::runtime_error on failure.
+void writeFile(const std::string& path, const std::string& text) {
+    const fs::path p(path);
+    if (p.has_parent_path()) {
+        std::error_code ec;
+        fs::create_directories(p.parent_path(), ec);
+    }
+    std::ofstream out(p, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) {
+        throw std::runtime_error("cannot write " + path);
+    }
+}
+
+/// An output file opened at the start of a run, so that a bad path fails before any work is done.
+class OutputFile {
+public:
+    explicit OutputFile(const std::string& path) : m_path(path) {
+        const fs::path p(path);
+        if (p.has_parent_path()) {
+            std::error_code ec;
+            fs::create_directories(p.parent_path(), ec);
+        }
+        m_out.open(p, std::ios::binary | std::ios::trunc);
+        if (!m_out) {
+            throw std::runtime_error("cannot write " + path);
+        }
+    }
+    void write(const std::string& text) {
+        m_out << text;
+        if (!m_out) {
+            throw std::runtime_error("cannot write " + m_path);
+        }
+    }
+    void close() {
+        m_out.close();
+        if (!m_out) {
+            throw std::runtime_error("cannot write " + m_path);
+        }
+    }
+
+private:
+    std::string m_path;
+    std::ofstream m_out;
+};
+
+std::string executableDirectory() {
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    return ec ? std::string() : exe.parent_path().string();
+}
+
+struct RunOptions {
+    std::string scenario;
+    std::vector<std::string> sets;
+    std::optional<std::int64_t> frames;
+    std::string out;
+    bool noRender = false;
+    std::string profile;
+    std::string trace;
+    std::string dump;
+    std::int64_t dumpEvery = 0;
+    bool quiet = false;
+    bool progress = false;
+};
+
+int commandList() {
+    const std::string dir = demoDirectory();
+    std::vector<fs::path> files;
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(dir, ec)) {
+        if (entry.path().extension() == ".toml") {
+            files.push_back(entry.path());
+        }
+    }
+    if (ec) {
+        std::cerr << "tumble: cannot read the demo folder " << dir << ": " << ec.message() << "\n";
+        return kExitFailure;
+    }
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+        std::string line;
+        try {
+            const SceneDef scene = peekScene(f.string(), readScenarioFile(f.string()));
+            line = scene.description;
+        } catch (const ScenarioError& e) {
+            line = std::string("(does not load: ") + e.what() + ")";
+        }
+        std::printf("%-14s %s\n", f.stem().string().c_str(), line.c_str());
+    }
+    return kExitOk;
+}
+
+int commandCheck(const Catalog& catalog, const RunOptions& o) {
+    const std::string path = resolveScenario(o.scenario);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets);
+    return kExitOk;
+}
+
+int commandRun(const Catalog& catalog, const RunOptions& o) {
+    const std::string path = resolveScenario(o.scenario);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets);
+    const SceneDef& scene = sim.scene();
+    const std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
+    const std::string outDir = o.out.empty() ? "out/" + scene.name : o.out;
+
+    // open what streams during the run before doing any work
+    std::optional<OutputFile> dump;
+    if (!o.dump.empty()) {
+        dump.emplace(o.dump);
+    }
+    sim.profiler().enableTrace(!o.trace.empty());
+    if (!o.noRender) {
+        std::fprintf(stderr, "tumble: note: this build has no renderer yet; simulating only "
+                             "(--no-render silences this note)\n");
+    }
+
+    std::signal(SIGINT, onInterrupt);
+    std::signal(SIGTERM, onInterrupt);
+    ProgressBar bar(frames, scene.frameSeconds(), !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
+    std::string pending;
+    auto dumpNow = [&] {
+        if (dump) {
+            pending.clear();
+            sim.appendDump(pending);
+            dump->write(pending);
+        }
+    };
+    if (o.dumpEvery > 0) {
+        dumpNow(); // the initial state, frame 0
+    }
+    bool interrupted = false;
+    while (sim.frame() < frames) {
+        if (g_interrupted.load()) {
+            interrupted = true;
+            break;
+        }
+        sim.runFrame();
+        if (o.dumpEvery > 0 && sim.frame() % static_cast<std::uint64_t>(o.dumpEvery) == 0) {
+            dumpNow();
+        }
+        bar.update(sim.frame());
+    }
+    bar.finish(sim.frame());
+    if (o.dumpEvery <= 0 || sim.frame() % static_cast<std::uint64_t>(o.dumpEvery) != 0) {
+        dumpNow(); // the last frame
+    }
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+
+    // outputs
+    std::vector<std::string> wrote;
+    if (dump) {
+        dump->close();
+        wrote.push_back(o.dump);
+    }
+    // the budget summary is always written: to --profile, else into the output folder
+    const std::string profilePath = o.profile.empty() ? outDir + "/profile.json" : o.profile;
+    writeFile(profilePath, budgetSummaryJson(sim.profiler(), scene, sim.frame()));
+    wrote.push_back(profilePath);
+    if (!o.trace.empty()) {
+        writeFile(o.trace, sim.profiler().traceJson());
+        wrote.push_back(o.trace);
+    }
+    const FrameStats f = sim.profiler().frameStats();
+    if (!o.quiet) {
+        std::fprintf(stderr,
+                     "%s: %llu frames, %.3f s simulated; physics per frame p50 %.3f ms, p99 %.3f ms, max %.3f ms "
+                     "(budget %.3g ms, %llu frames over)\n",
+                     scene.name.c_str(), static_cast<unsigned long long>(sim.frame()), sim.time(), f.physicsP50Ms,
+                     f.physicsP99Ms, f.physicsMaxMs, scene.physicsBudgetMs,
+                     static_cast<unsigned long long>(f.overBudgetFrames));
+        for (const std::string& w : wrote) {
+            std::fprintf(stderr, "wrote %s\n", w.c_str());
+        }
+    }
+    if (interrupted) {
+        std::fprintf(stderr, "tumble: interrupted at frame %llu; the outputs above hold the run so far\n",
+                     static_cast<unsigned long long>(sim.frame()));
+        return kExitInterrupted;
+    }
+    return kExitOk;
+}
+
+void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
+    cmd->add_option("scenario", o.scenario, "A scenario file (.toml) or a demo name (see `tumble list`)")
+        ->required();
+    cmd->add_option("--set", o.sets,
+                    "Override a scenario value, e.g. --set scene.dt=0.005 or --set bob.springs.stiffness=50 "
+                    "(repeatable)")
+        ->allow_extra_args(false)
+        ->type_name("KEY=VALUE");
+}
+
+} // namespace
+
+std::string demoDirectory() {
+    if (const char* env = std::getenv("TUMBLE_DEMOS"); env && *env) {
+        return env;
+    }
+    const std::string exe = executableDirectory();
+    for (const std::string& candidate : {exe + "/demos", exe + "/../demos"}) {
+        if (!exe.empty() && fs::is_directory(candidate)) {
+            return fs::weakly_canonical(candidate).string();
+        }
+    }
+    return std::string(TUMBLE_SOURCE_DIR) + "/demos";
+}
+
+std::string resolveScenario(const std::string& nameOrPath) {
+    std::error_code ec;
+    if (fs::exists(nameOrPath, ec)) {
+        return nameOrPath;
+    }
+    const bool looksLikePath = nameOrPath.find('/') != std::string::npos ||
+                               fs::path(nameOrPath).extension() == ".toml";
+    if (!looksLikePath) {
+        const std::string demo = demoDirectory() + "/" + nameOrPath + ".toml";
+        if (fs::exists(demo, ec)) {
+            return demo;
+        }
+        throw ScenarioError(nameOrPath, 0, 0, "no scenario file or demo by that name (`tumble list` shows the demos)");
+    }
+    throw ScenarioError(nameOrPath, 0, 0, "cannot open the scenario: no such file");
+}
+
+int runCli(int argc, char** argv, const Catalog& catalog) {
+    CLI::App app{"Tumble: a real-time physics sandbox that runs headlessly.\n"
+                 "Scenarios are TOML files (see the README); demos are run by name.",
+                 "tumble"};
+    app.require_subcommand(1, 1);
+    app.set_help_all_flag("--help-all", "Show the help of every verb");
+
+    RunOptions o;
+    CLI::App* list = app.add_subcommand("list", "List the demos: name and what each shows");
+    CLI::App* check = app.add_subcommand("check", "Parse and validate a scenario; prints nothing when it is valid");
+    addScenarioOptions(check, o);
+    CLI::App* run = app.add_subcommand("run", "Simulate a scenario headlessly and write the outputs asked for");
+    addScenarioOptions(run, o);
+    run->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
+        ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
+    run->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
+    run->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
+    run->add_option("--profile", o.profile, "Write the budget summary as JSON to FILE (default <out>/profile.json)")->type_name("FILE");
+    run->add_option("--trace", o.trace, "Write a Chrome trace-event JSON of every system's timing to FILE")
+        ->type_name("FILE");
+    run->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")->type_name("FILE");
+    run->add_option("--dump-every", o.dumpEvery,
+                    "Dump every K frames, starting with the initial state (default: the last frame only)")
+        ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
+        ->type_name("K");
+    run->add_flag("--quiet", o.quiet, "No progress bar and no summary");
+    run->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::cerr << "tumble: " << e.what() << "\n";
+        std::cerr << "Run `tumble --help` or `tumble VERB --help` for usage.\n";
+        return kExitBadInput;
+    }
+
+    try {
+        if (list->parsed()) {
+            return commandList();
+        }
+        if (check->parsed()) {
+            return commandCheck(catalog, o);
+        }
+        return commandRun(catalog, o);
+    } catch (const ScenarioError& e) {
+        std::cerr << "tumble: " << e.what() << "\n";
+        return kExitBadInput;
+    } catch (const std::bad_alloc&) {
+        std::cerr << "tumble: error: out of memory\n";
+        return kExitFailure;
+    } catch (const std::exception& e) {
+        std::cerr << "tumble: error: " << e.what() << "\n";
+        return kExitFailure;
+    }
+}
+
+} // namespace tumble

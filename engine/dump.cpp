@@ -1,0 +1,58 @@
+#include "engine/dump.h"
+
+#include "components/name.h"
+
+#include <cstdio>
+
+namespace tumble {
+
+void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame, double t,
+                    std::uint64_t hash) {
+    JsonWriter w(out);
+    w.beginObject().key("frame").value(frame).key("t").value(t).key("hash").value(hashHex(hash));
+    w.key("entities").beginObject();
+    for (Entity e : world.entities()) {
+        const Name* name = world.tryGet<Name>(e);
+        if (!name) {
+            continue;
+        }
+        // the first codec that claims the entity gives its kind
+        for (const StateCodec& codec : catalog.states()) {
+            if (codec.has(world, e)) {
+                w.key(name->value).beginObject().key("kind").value(codec.kind);
+                codec.dump(world, e, w);
+                w.endObject();
+                break;
+            }
+        }
+    }
+    w.endObject().endObject();
+    out += '\n';
+}
+
+std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e) {
+    Hasher h;
+    h.add(e.index);
+    for (const StateCodec& codec : catalog.states()) {
+        if (codec.has(world, e)) {
+            codec.hash(world, e, h);
+        }
+    }
+    return h.digest();
+}
+
+std::uint64_t stateHash(const World& world, const Catalog& catalog) {
+    Hasher h;
+    for (Entity e : world.entities()) {
+        h.add(entityHash(world, catalog, e));
+    }
+    return h.digest();
+}
+
+std::string hashHex(std::uint64_t h) {
+    char buf[20];
+    std::snprintf(buf, sizeof buf, "0x%016llx", static_cast<unsigned long long>(h));
+    return buf;
+}
+
+} // namespace tumble

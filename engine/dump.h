@@ -1,0 +1,27 @@
+#pragma once
+// The state dump (JSON Lines, CONTRACT.md) and the state hash. Both walk the world in a fixed order:
+// entities by ascending slot, and for each the state codecs in registration order, so two runs of the same
+// scenario give the same lines and the same hashes.
+
+#include "engine/catalog.h"
+#include "engine/world.h"
+
+#include <cstdint>
+#include <string>
+
+namespace tumble {
+
+/// Appends one dump line (with its newline): {"frame", "t", "hash", "entities": {name: {"kind", ...}}}.
+void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame, double t,
+                    std::uint64_t hash);
+
+/// 64-bit hash of every simulated byte in the world (every codec's bytes, entity by entity).
+std::uint64_t stateHash(const World& world, const Catalog& catalog);
+
+/// The hash of one entity's simulated state.
+std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e);
+
+/// "0x" followed by 16 hex digits.
+std::string hashHex(std::uint64_t h);
+
+} // namespace tumble

@@ -1,0 +1,136 @@
+#include "engine/profiler.h"
+
+#include "engine/json.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tumble {
+
+void Profiler::Ring::push(float ms, std::size_t capacity) {
+    if (samples.size() < capacity) {
+        samples.push_back(ms);
+        return;
+    }
+    samples[next] = ms;
+    next = (next + 1) % capacity;
+}
+
+double Profiler::Ring::percentile(double p) const {
+    if (samples.empty()) {
+        return 0.0;
+    }
+    // nearest rank on a sorted copy; only done when statistics are asked for
+    std::vector<float> sorted(samples);
+    std::sort(sorted.begin(), sorted.end());
+    const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(sorted.size())));
+    return sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
+}
+
+Profiler::Profiler(std::size_t ringCapacity) : m_origin(Clock::now()), m_capacity(std::max<std::size_t>(ringCapacity, 1)) {}
+
+int Profiler::addSlot(std::string name, Phase phase, bool isPhase) {
+    Slot s{std::move(name), phase, isPhase, 0, 0, 0, {}};
+    s.recent.samples.reserve(m_capacity);
+    m_slots.push_back(std::move(s));
+    return static_cast<int>(m_slots.size() - 1);
+}
+
+void Profiler::beginFrame(std::uint64_t frame) {
+    m_frame = frame;
+    m_frameStartNs = nowNs();
+    m_framePhysicsNs = 0;
+    m_frameRenderNs = 0;
+}
+
+void Profiler::endFrame() {
+    const std::int64_t end = nowNs();
+    ++m_frames;
+    m_physics.push(static_cast<float>(static_cast<double>(m_framePhysicsNs) * 1e-6), m_capacity);
+    m_render.push(static_cast<float>(static_cast<double>(m_frameRenderNs) * 1e-6), m_capacity);
+    m_physicsMaxNs = std::max(m_physicsMaxNs, m_framePhysicsNs);
+    if (m_framePhysicsNs > m_budgetNs) {
+        ++m_overBudget;
+    }
+    if (m_trace) {
+        m_events.push_back({-1, m_frame, m_frameStartNs, end - m_frameStartNs});
+    }
+}
+
+void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) {
+    Slot& s = m_slots[std::size_t(slot)];
+    ++s.calls;
+    s.sumNs += durationNs;
+    s.maxNs = std::max(s.maxNs, durationNs);
+    s.recent.push(static_cast<float>(static_cast<double>(durationNs) * 1e-6), m_capacity);
+    if (s.isPhase) {
+        if (s.phase == Phase::Fixed) {
+            m_framePhysicsNs += durationNs;
+        } else if (s.phase == Phase::Frame) {
+            m_frameRenderNs += durationNs;
+        }
+    }
+    if (m_trace) {
+        m_events.push_back({slot, m_frame, startNs, durationNs});
+    }
+}
+
+std::vector<SlotStats> Profiler::slotStats() const {
+    std::vector<SlotStats> out;
+    out.reserve(m_slots.size());
+    for (const Slot& s : m_slots) {
+        SlotStats st;
+        st.name = s.name;
+        st.phase = s.phase;
+        st.isPhase = s.isPhase;
+        st.calls = s.calls;
+        st.meanMs = s.calls ? static_cast<double>(s.sumNs) * 1e-6 / static_cast<double>(s.calls) : 0.0;
+        st.p50Ms = s.recent.percentile(0.50);
+        st.p99Ms = s.recent.percentile(0.99);
+        st.maxMs = static_cast<double>(s.maxNs) * 1e-6;
+        out.push_back(std::move(st));
+    }
+    return out;
+}
+
+FrameStats Profiler::frameStats() const {
+    FrameStats f;
+    f.frames = m_frames;
+    f.physicsP50Ms = m_physics.percentile(0.50);
+    f.physicsP99Ms = m_physics.percentile(0.99);
+    f.physicsMaxMs = static_cast<double>(m_physicsMaxNs) * 1e-6;
+    f.renderP50Ms = m_render.percentile(0.50);
+    f.overBudgetFrames = m_overBudget;
+    return f;
+}
+
+std::string Profiler::traceJson() const {
+    std::string out;
+    out.reserve(m_events.size() * 120 + 64);
+    JsonWriter w(out);
+    w.beginObject().key("displayTimeUnit").value("ms").key("traceEvents").beginArray();
+    // name the one process and thread so Perfetto labels the track
+    w.beginObject().key("name").value("process_name").key("ph").value("M").key("pid").value(1).key("tid").value(1);
+    w.key("args").beginObject().key("name").value("tumble").endObject().endObject();
+    w.beginObject().key("name").value("thread_name").key("ph").value("M").key("pid").value(1).key("tid").value(1);
+    w.key("args").beginObject().key("name").value("simulation").endObject().endObject();
+    for (const TraceEvent& e : m_events) {
+        w.beginObject();
+        if (e.slot < 0) {
+            w.key("name").value("frame").key("cat").value("frame");
+        } else {
+            const Slot& s = m_slots[std::size_t(e.slot)];
+            w.key("name").value(s.name).key("cat").value(s.isPhase ? "phase" : phaseName(s.phase));
+        }
+        // trace timestamps are microseconds
+        w.key("ph").value("X").key("ts").value(static_cast<double>(e.startNs) * 1e-3);
+        w.key("dur").value(static_cast<double>(e.durationNs) * 1e-3).key("pid").value(1).key("tid").value(1);
+        w.key("args").beginObject().key("frame").value(e.frame).endObject();
+        w.endObject();
+    }
+    w.endArray().endObject();
+    out += '\n';
+    return out;
+}
+
+} // namespace tumble

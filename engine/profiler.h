@@ -1,0 +1,144 @@
+#pragma once
+// The budget profiler. Every system and every phase runs inside a ScopedTimer; each timer slot keeps its
+// call count, sum and maximum over the whole run and its most recent durations in a ring buffer, from which
+// p50 and p99 are taken. Per frame it sums the fixed phase (physics) and the frame phase (render and
+// outputs), so a run can say how often physics overran its budget. With tracing on, every timed scope is
+// also kept as a Chrome trace event (loads in Perfetto or chrome://tracing).
+//
+// Cost: two steady_clock reads and a few stores per scope (tens of nanoseconds; tests/bench measures it),
+// far under 1% of a 16.7 ms frame for the few dozen scopes a frame has.
+
+#include "engine/phase.h"
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace tumble {
+
+/// Timing statistics of one timer slot (a system or a phase), in milliseconds.
+struct SlotStats {
+    std::string name;
+    Phase phase = Phase::Fixed;
+    bool isPhase = false;     ///< true for a whole-phase timer, false for a system
+    std::uint64_t calls = 0;
+    double meanMs = 0.0;      ///< over every call of the run
+    double p50Ms = 0.0;       ///< over the calls still in the ring buffer
+    double p99Ms = 0.0;
+    double maxMs = 0.0;       ///< over every call of the run
+};
+
+/// Per-frame statistics, in milliseconds.
+struct FrameStats {
+    std::uint64_t frames = 0;
+    double physicsP50Ms = 0.0;
+    double physicsP99Ms = 0.0;
+    double physicsMaxMs = 0.0;
+    double renderP50Ms = 0.0;
+    std::uint64_t overBudgetFrames = 0; ///< frames whose physics took longer than the budget
+};
+
+/// Times systems and phases; see the header comment.
+class Profiler {
+public:
+    /// ringCapacity: how many recent samples each slot and the frame record keep for percentiles.
+    explicit Profiler(std::size_t ringCapacity = 1u << 14);
+
+    /// A new timer slot; the returned id is what ScopedTimer takes.
+    int addSlot(std::string name, Phase phase, bool isPhase);
+    std::size_t slotCount() const { return m_slots.size(); }
+    const std::string& slotName(int slot) const { return m_slots[std::size_t(slot)].name; }
+
+    /// Keep every timed scope as a trace event (memory grows with the run).
+    void enableTrace(bool on) { m_trace = on; }
+    /// The budget that frames are counted against, ms of physics per frame.
+    void setPhysicsBudgetMs(double ms) { m_budgetNs = static_cast<std::int64_t>(ms * 1e6); }
+
+    void beginFrame(std::uint64_t frame);
+    void endFrame();
+
+    /// Nanoseconds since the profiler was made (steady clock).
+    std::int64_t nowNs() const {
+        return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - m_origin).count();
+    }
+    /// One timed scope of a slot.
+    void record(int slot, std::int64_t startNs, std::int64_t durationNs);
+
+    std::vector<SlotStats> slotStats() const;
+    FrameStats frameStats() const;
+    double budgetMs() const { return static_cast<double>(m_budgetNs) * 1e-6; }
+
+    /// Chrome trace-event JSON (the "traceEvents" object form): one complete event per timed scope, and one
+    /// per frame.
+    std::string traceJson() const;
+    std::size_t traceEventCount() const { return m_events.size(); }
+
+private:
+    using Clock = std::chrono::steady_clock;
+
+    struct Ring {
+        std::vector<float> samples; ///< ms, most recent ringCapacity
+        std::size_t next = 0;
+        void push(float ms, std::size_t capacity);
+        double percentile(double p) const;
+    };
+    struct Slot {
+        std::string name;
+        Phase phase;
+        bool isPhase;
+        std::uint64_t calls = 0;
+        std::int64_t sumNs = 0;
+        std::int64_t maxNs = 0;
+        Ring recent;
+    };
+    struct TraceEvent {
+        int slot;               ///< -1 for a whole frame
+        std::uint64_t frame;
+        std::int64_t startNs;
+        std::int64_t durationNs;
+    };
+
+    Clock::time_point m_origin;
+    std::size_t m_capacity;
+    std::vector<Slot> m_slots;
+    bool m_trace = false;
+    std::vector<TraceEvent> m_events;
+    std::int64_t m_budgetNs = 8'000'000;
+
+    // the frame being timed
+    std::uint64_t m_frame = 0;
+    std::int64_t m_frameStartNs = 0;
+    std::int64_t m_framePhysicsNs = 0;
+    std::int64_t m_frameRenderNs = 0;
+
+    // over the run
+    std::uint64_t m_frames = 0;
+    std::uint64_t m_overBudget = 0;
+    std::int64_t m_physicsMaxNs = 0;
+    Ring m_physics;
+    Ring m_render;
+};
+
+/// Times the enclosing scope into a profiler slot.
+class ScopedTimer {
+public:
+    ScopedTimer(Profiler& profiler, int slot) : m_profiler(profiler), m_slot(slot), m_start(profiler.nowNs()) {}
+    ~ScopedTimer() { m_profiler.record(m_slot, m_start, m_profiler.nowNs() - m_start); }
+    ScopedTimer(const ScopedTimer&) = delete;
+    ScopedTimer& operator=(const ScopedTimer&) = delete;
+
+private:
+    Profiler& m_profiler;
+    int m_slot;
+    std::int64_t m_start;
+};
+
+#define TUMBLE_CONCAT_INNER(a, b) a##b
+#define TUMBLE_CONCAT(a, b) TUMBLE_CONCAT_INNER(a, b)
+/// Times the rest of the enclosing scope into the given profiler slot.
+#define TUMBLE_PROFILE_SCOPE(profiler, slot) \
+    ::tumble::ScopedTimer TUMBLE_CONCAT(tumbleScopedTimer, __LINE__)(profiler, slot)
+
+} // namespace tumble

@@ -1,0 +1,485 @@
+#include "engine/scenario.h"
+
+#include "components/name.h"
+#include "components/transform.h"
+#include "engine/random.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace tumble {
+
+namespace {
+
+constexpr double kHuge = 1e9;    // bound on coordinates, m
+constexpr std::string_view kSections[] = {"scene", "budget", "camera", "render"};
+// components of the scenario format (CONTRACT.md) that arrive with later work
+constexpr std::string_view kPlanned[] = {"cloth", "softbody", "emitter", "rigid_body", "rigid_body_2d",
+                                         "water", "force_field"};
+
+bool validName(std::string_view s) {
+    if (s.empty() || s.size() > 64) {
+        return false;
+    }
+    return std::all_of(s.begin(), s.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+    });
+}
+
+bool isSection(std::string_view s) {
+    return std::find(std::begin(kSections), std::end(kSections), s) != std::end(kSections);
+}
+
+// ---- overrides
+
+toml::table* findEntityTable(toml::table& root, std::string_view name) {
+    toml::array* entities = root["entity"].as_array();
+    if (!entities) {
+        return nullptr;
+    }
+    for (toml::node& n : *entities) {
+        toml::table* t = n.as_table();
+        if (t && t->get_as<std::string>("name") && t->get_as<std::string>("name")->get() == name) {
+            return t;
+        }
+    }
+    return nullptr;
+}
+
+void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx) {
+    const std::string origin = "--set " + spec;
+    const auto eq = spec.find('=');
+    if (eq == std::string::npos || eq == 0) {
+        throw ScenarioError(ctx.file, 0, 0, origin + ": expected KEY=VALUE, e.g. scene.dt=0.005");
+    }
+    const std::string key = spec.substr(0, eq);
+    const std::string text = spec.substr(eq + 1);
+    std::vector<std::string> path;
+    std::stringstream ss(key);
+    for (std::string part; std::getline(ss, part, '.');) {
+        path.push_back(part);
+    }
+    if (path.size() < 2 || std::any_of(path.begin(), path.end(), [](const std::string& p) { return p.empty(); })) {
+        throw ScenarioError(ctx.file, 0, 0,
+                            origin + ": KEY must be section.key (scene.dt) or entity.component.key "
+                                     "(curtain.cloth.integrator)");
+    }
+
+    // where the value goes
+    toml::table* table = nullptr;
+    if (isSection(path[0])) {
+        if (!root.contains(path[0])) {
+            root.insert(path[0], toml::table{});
+        }
+        table = root[path[0]].as_table();
+        if (!table) {
+            throw ScenarioError(ctx.file, 0, 0, origin + ": [" + path[0] + "] is not a table in the scenario");
+        }
+    } else {
+        table = findEntityTable(root, path[0]);
+        if (!table) {
+            throw ScenarioError(ctx.file, 0, 0,
+                                origin + ": no section or entity named '" + path[0] +
+                                    "' (sections: scene, budget, camera, render; or an entity's name)");
+        }
+    }
+    for (std::size_t i = 1; i + 1 < path.size(); ++i) {
+        if (!table->contains(path[i])) {
+            table->insert(path[i], toml::table{});
+        }
+        toml::table* next = table->get_as<toml::table>(path[i]);
+        if (!next) {
+            throw ScenarioError(ctx.file, 0, 0, origin + ": '" + path[i] + "' is not a table");
+        }
+        table = next;
+    }
+
+    // the value: TOML if it parses as one, else the text as a string
+    toml::table parsed;
+    bool isToml = true;
+    try {
+        parsed = toml::parse("v = " + text, origin);
+    } catch (const toml::parse_error&) {
+        isToml = false;
+    }
+    const std::string& last = path.back();
+    if (isToml && parsed.contains("v")) {
+        parsed.get("v")->visit([&](auto&& n) { table->insert_or_assign(last, std::move(n)); });
+    } else {
+        table->insert_or_assign(last, text);
+    }
+    ctx.overrideOf[table->get(last)] = origin;
+}
+
+// ---- sections
+
+void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
+    const toml::node* sceneNode = root.get("scene");
+    if (!sceneNode) {
+        ctx.fail(nullptr, "the scenario needs a [scene] table with at least name = \"...\"");
+    }
+    if (!sceneNode->is_table()) {
+        ctx.fail(sceneNode, "'scene' must be a table, not " + describeType(*sceneNode));
+    }
+    TableReader s(*sceneNode->as_table(), "[scene]", ctx);
+    scene.name = s.requiredString("name");
+    if (!validName(scene.name)) {
+        s.fail("name", "'name' in [scene] must be 1-64 letters, digits, '_' or '-' (it names the output folder)");
+    }
+    scene.description = s.string("description", "");
+    scene.dt = s.number("dt", 1.0 / 60.0, 1e-6, 1.0);
+    if (scene.dt <= 0.0) {
+        s.fail("dt", "'dt' in [scene] must be positive");
+    }
+    scene.substeps = static_cast<int>(s.integer("substeps", 1, 1, 1000));
+    scene.frames = s.integer("frames", 600, 0, 100'000'000);
+    scene.gravity = s.vector<3>("gravity", scene.gravity, -1e4, 1e4);
+    scene.seed = static_cast<std::uint64_t>(s.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
+    s.finish();
+
+    auto section = [&](const char* key) -> const toml::table* {
+        const toml::node* n = root.get(key);
+        if (n && !n->is_table()) {
+            ctx.fail(n, "'" + std::string(key) + "' must be a table, not " + describeType(*n));
+        }
+        return n ? n->as_table() : nullptr;
+    };
+    if (const toml::table* t = section("budget")) {
+        TableReader b(*t, "[budget]", ctx);
+        scene.physicsBudgetMs = b.number("physics_ms", scene.physicsBudgetMs, 1e-3, 1e6);
+        b.finish();
+    }
+    if (const toml::table* t = section("camera")) {
+        TableReader c(*t, "[camera]", ctx);
+        scene.cameraEye = c.vector<3>("eye", scene.cameraEye, -kHuge, kHuge);
+        scene.cameraTarget = c.vector<3>("target", scene.cameraTarget, -kHuge, kHuge);
+        scene.cameraFovDeg = c.number("fov_deg", scene.cameraFovDeg, 1.0, 179.0);
+        if (scene.cameraEye == scene.cameraTarget) {
+            c.fail("target", "'target' in [camera] must differ from 'eye'");
+        }
+        c.finish();
+    }
+    if (const toml::table* t = section("render")) {
+        TableReader r(*t, "[render]", ctx);
+        scene.renderWidth = static_cast<int>(r.integer("width", scene.renderWidth, 16, 8192));
+        scene.renderHeight = static_cast<int>(r.integer("height", scene.renderHeight, 16, 8192));
+        r.finish();
+    }
+}
+
+// ---- entities
+
+struct Placement {
+    std::string name;
+    Vec3 position;
+};
+
+/// The instances one [[entity]] stands for: itself, or its repeat / scatter copies.
+std::vector<Placement> placements(TableReader& e, const std::string& name, Vec3 base, const SceneDef& scene,
+                                  std::int64_t budget) {
+    const toml::table* repeat = e.subtable("repeat");
+    const toml::table* scatter = e.subtable("scatter");
+    if (repeat && scatter) {
+        e.fail("scatter", "entity '" + name + "' has both 'repeat' and 'scatter'; use one");
+    }
+    std::vector<Placement> out;
+    if (repeat) {
+        TableReader r(*repeat, "entity '" + name + "' repeat", e.context());
+        const std::int64_t count = r.integer("count", 1, 1, budget);
+        const auto offset = r.vector<3>("offset", {0.0, 0.0, 0.0}, -kHuge, kHuge);
+        r.finish();
+        for (std::int64_t i = 0; i < count; ++i) {
+            const double k = static_cast<double>(i);
+            out.push_back({name + "_" + std::to_string(i),
+                           base + Vec3{offset[0] * k, offset[1] * k, offset[2] * k}});
+        }
+    } else if (scatter) {
+        TableReader r(*scatter, "entity '" + name + "' scatter", e.context());
+        const std::int64_t count = r.integer("count", 1, 1, budget);
+        const auto lo = r.vector<3>("min", {-1.0, 0.0, -1.0}, -kHuge, kHuge);
+        const auto hi = r.vector<3>("max", {1.0, 0.0, 1.0}, -kHuge, kHuge);
+        r.finish();
+        for (int a = 0; a < 3; ++a) {
+            if (lo[std::size_t(a)] > hi[std::size_t(a)]) {
+                r.fail("min", "'min' of entity '" + name + "' scatter is above its 'max'");
+            }
+        }
+        // offsets relative to the entity's position, from a stream of their own
+        Rng rng(streamSeed(scene.seed, "scatter:" + name));
+        for (std::int64_t i = 0; i < count; ++i) {
+            const Vec3 d{rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1]), rng.uniform(lo[2], hi[2])};
+            out.push_back({name + "_" + std::to_string(i), base + d});
+        }
+    } else {
+        out.push_back({name, base});
+    }
+    return out;
+}
+
+void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog& catalog, const SceneDef& scene,
+                  World& world, std::map<std::string, Entity>& byName) {
+    const toml::node* node = root.get("entity");
+    if (!node) {
+        return;
+    }
+    const toml::array* list = node->as_array();
+    if (!list || !list->is_array_of_tables()) {
+        ctx.fail(node, "'entity' must be an array of tables, written [[entity]]");
+    }
+    std::int64_t remaining = Limits::kMaxEntities;
+    for (const toml::node& item : *list) {
+        const toml::table& table = *item.as_table();
+        TableReader e(table, "[[entity]]", ctx);
+        const std::string name = e.requiredString("name");
+        if (!validName(name)) {
+            e.fail("name", "entity name '" + name + "' must be 1-64 letters, digits, '_' or '-'");
+        }
+        const std::string where = "entity '" + name + "'";
+        Vec3 base;
+        if (const toml::table* t = e.subtable("transform")) {
+            TableReader tr(*t, where + " [transform]", ctx);
+            const auto p = tr.vector<3>("position", {0.0, 0.0, 0.0}, -kHuge, kHuge);
+            base = {p[0], p[1], p[2]};
+            tr.finish();
+        }
+        const std::vector<Placement> instances = placements(e, name, base, scene, remaining);
+        remaining -= static_cast<std::int64_t>(instances.size());
+        if (remaining < 0) {
+            e.fail("name", "the scene has more than " + std::to_string(Limits::kMaxEntities) + " entities");
+        }
+
+        // component keys: everything that is not the entity's own bookkeeping
+        std::vector<std::pair<const ComponentLoader*, const toml::table*>> components;
+        for (auto&& [k, v] : table) {
+            const std::string key(k.str());
+            if (key == "name" || key == "transform" || key == "repeat" || key == "scatter") {
+                continue;
+            }
+            const ComponentLoader* loader = catalog.findComponent(key);
+            if (!loader) {
+                if (std::find(std::begin(kPlanned), std::end(kPlanned), key) != std::end(kPlanned)) {
+                    ctx.fail(&v, where + ": the '" + key +
+                                     "' component is part of the scenario format but not implemented in this "
+                                     "build yet");
+                }
+                std::vector<std::string> known = catalog.componentKeys();
+                known.insert(known.end(), {"name", "transform", "repeat", "scatter"});
+                const std::string near = nearestName(key, known);
+                std::string keys;
+                for (const std::string& s : catalog.componentKeys()) {
+                    keys += (keys.empty() ? "" : ", ") + s;
+                }
+                ctx.fail(&v, "unknown key '" + key + "' in " + where +
+                                 (near.empty() ? "; components in this build: " + keys
+                                               : " (did you mean '" + near + "'?)"));
+            }
+            if (!v.is_table()) {
+                ctx.fail(&v, where + ": '" + key + "' must be a table, written [entity." + key + "]");
+            }
+            e.has(key);
+            components.emplace_back(loader, v.as_table());
+        }
+        e.finish();
+
+        for (const Placement& p : instances) {
+            if (byName.count(p.name)) {
+                e.fail("name", "entity name '" + p.name + "' is used twice");
+            }
+            const Entity entity = world.create();
+            byName[p.name] = entity;
+            world.emplace<Name>(entity, Name{p.name});
+            world.emplace<Transform>(entity, Transform{p.position});
+            for (const auto& [loader, sub] : components) {
+                TableReader cr(*sub, where + " [" + loader->key + "]", ctx);
+                loader->load(cr, world, entity, scene);
+                cr.finish();
+            }
+        }
+    }
+}
+
+// ---- events
+
+std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
+                                 const SceneDef& scene, const World& world,
+                                 const std::map<std::string, Entity>& byName) {
+    std::vector<EventDef> events;
+    const toml::node* node = root.get("event");
+    if (!node) {
+        return events;
+    }
+    const toml::array* list = node->as_array();
+    if (!list || !list->is_array_of_tables()) {
+        ctx.fail(node, "'event' must be an array of tables, written [[event]]");
+    }
+    if (list->size() > Limits::kMaxArray) {
+        ctx.fail(node, "too many events (at most " + std::to_string(Limits::kMaxArray) + ")");
+    }
+    for (const toml::node& item : *list) {
+        TableReader r(*item.as_table(), "[[event]]", ctx);
+        EventDef ev;
+        ev.line = static_cast<int>(item.source().begin.line);
+        const bool hasAt = r.has("at");
+        const bool hasFrame = r.has("frame");
+        if (hasAt == hasFrame) {
+            r.fail(hasAt ? "frame" : "action", "an [[event]] needs exactly one of 'at' (seconds) or 'frame'");
+        }
+        if (hasAt) {
+            const double at = r.number("at", 0.0, 0.0, 1e9);
+            ev.step = static_cast<std::uint64_t>(std::ceil(at / scene.dt - 1e-9));
+        } else {
+            ev.step = static_cast<std::uint64_t>(r.integer("frame", 0, 0, 1'000'000'000)) *
+                      static_cast<std::uint64_t>(scene.substeps);
+        }
+        ev.entity = r.requiredString("entity");
+        const auto found = byName.find(ev.entity);
+        if (found == byName.end()) {
+            std::vector<std::string> names;
+            for (const auto& [n, e] : byName) {
+                names.push_back(n);
+            }
+            const std::string near = nearestName(ev.entity, names);
+            r.fail("entity", "no entity named '" + ev.entity + "'" +
+                                 (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        }
+        ev.action = r.requiredString("action");
+        if (const toml::node* v = r.node("value")) {
+            if (v->is_number()) {
+                ev.value.push_back(r.number("value", 0.0, -kHuge, kHuge));
+            } else {
+                const toml::array* a = r.array("value", 4096);
+                ev.value.resize(a->size());
+                r.readNumbers(*v, "value", ev.value.data(), a->size(), -kHuge, kHuge);
+            }
+        }
+        ev.position = r.vector<3>("position", ev.position, -kHuge, kHuge);
+        ev.radius = r.number("radius", 0.0, 0.0, kHuge);
+        ev.amount = r.number("amount", 0.0, -kHuge, kHuge);
+        r.finish();
+
+        // the action must be one that some component of this entity takes
+        const EventAction* match = nullptr;
+        std::vector<std::string> actionNames;
+        for (const EventAction& a : catalog.actions()) {
+            if (std::find(actionNames.begin(), actionNames.end(), a.action) == actionNames.end()) {
+                actionNames.push_back(a.action);
+            }
+            if (a.action == ev.action && a.appliesTo(world, found->second)) {
+                match = &a;
+            }
+        }
+        if (!match) {
+            bool known = std::find(actionNames.begin(), actionNames.end(), ev.action) != actionNames.end();
+            std::string names;
+            for (const std::string& s : actionNames) {
+                names += (names.empty() ? "" : ", ") + s;
+            }
+            if (known) {
+                r.fail("action", "action '" + ev.action + "' does not apply to entity '" + ev.entity + "'");
+            }
+            const std::string near = nearestName(ev.action, actionNames);
+            r.fail("action", "unknown action '" + ev.action + "'" +
+                                 (near.empty() ? "; actions in this build: " + names
+                                               : " (did you mean '" + near + "'?)"));
+        }
+        if (auto problem = match->check(world, found->second, ev)) {
+            r.fail("value", "action '" + ev.action + "': " + *problem);
+        }
+        events.push_back(std::move(ev));
+    }
+    std::stable_sort(events.begin(), events.end(),
+                     [](const EventDef& a, const EventDef& b) { return a.step < b.step; });
+    return events;
+}
+
+toml::table parseText(const std::string& path, const std::string& text) {
+    try {
+        return toml::parse(text, path);
+    } catch (const toml::parse_error& err) {
+        throw ScenarioError(path, static_cast<int>(err.source().begin.line),
+                            static_cast<int>(err.source().begin.column),
+                            "TOML syntax error: " + std::string(err.description()));
+    }
+}
+
+} // namespace
+
+std::string readScenarioFile(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) {
+        throw ScenarioError(path, 0, 0, "cannot open the scenario: no such file (or a demo name: see `tumble list`)");
+    }
+    if (!S_ISREG(st.st_mode)) {
+        throw ScenarioError(path, 0, 0, "the scenario is not a regular file");
+    }
+    if (static_cast<std::uint64_t>(st.st_size) > Limits::kMaxFileBytes) {
+        throw ScenarioError(path, 0, 0, "the scenario is larger than " +
+                                            std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
+    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        throw ScenarioError(path, 0, 0, "cannot open the scenario for reading");
+    }
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+Scenario loadScenario(const Catalog& catalog, const std::string& path, std::string text,
+                      const std::vector<std::string>& overrides, World& world) {
+    Scenario sc;
+    sc.path = path;
+    sc.text = std::move(text);
+    sc.overrides = overrides;
+    LoadContext ctx;
+    ctx.file = path;
+
+    if (sc.text.size() > Limits::kMaxFileBytes) {
+        throw ScenarioError(path, 0, 0, "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
+    }
+    toml::table root = parseText(path, sc.text);
+    for (const std::string& o : overrides) {
+        applyOverride(root, o, ctx);
+    }
+
+    // top-level keys
+    for (auto&& [k, v] : root) {
+        const std::string_view key = k.str();
+        if (isSection(key) || key == "entity" || key == "event" || key == "joint") {
+            continue;
+        }
+        const std::string near = nearestName(key, {"scene", "budget", "camera", "render", "entity", "event", "joint"});
+        ctx.fail(&v, "unknown top-level key '" + std::string(key) + "'" +
+                         (near.empty() ? "; expected scene, budget, camera, render, entity, event or joint"
+                                       : " (did you mean '" + near + "'?)"));
+    }
+    readSections(root, ctx, sc.scene);
+    if (const toml::node* joints = root.get("joint")) {
+        ctx.fail(joints, "[[joint]] connects rigid bodies, which are not implemented in this build yet");
+    }
+    std::map<std::string, Entity> byName;
+    readEntities(root, ctx, catalog, sc.scene, world, byName);
+    sc.events = readEvents(root, ctx, catalog, sc.scene, world, byName);
+    return sc;
+}
+
+SceneDef peekScene(const std::string& path, const std::string& text) {
+    LoadContext ctx;
+    ctx.file = path;
+    toml::table root = parseText(path, text);
+    SceneDef scene;
+    const toml::table* s = root["scene"].as_table();
+    if (!s) {
+        ctx.fail(nullptr, "the scenario needs a [scene] table");
+    }
+    scene.name = s->get_as<std::string>("name") ? s->get_as<std::string>("name")->get() : "";
+    scene.description = s->get_as<std::string>("description") ? s->get_as<std::string>("description")->get() : "";
+    return scene;
+}
+
+} // namespace tumble

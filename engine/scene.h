@@ -1,0 +1,43 @@
+#pragma once
+// The scene-wide settings of a scenario ([scene], [budget], [camera], [render]) and the scripted events.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace tumble {
+
+/// Settings that hold for the whole run; read once from the scenario, never changed by systems.
+struct SceneDef {
+    std::string name;
+    std::string description;
+    double dt = 1.0 / 60.0;                      ///< s, fixed physics step
+    int substeps = 1;                            ///< fixed steps per frame
+    std::int64_t frames = 600;                   ///< default run length
+    std::array<double, 3> gravity{0.0, -9.81, 0.0}; ///< m/s^2
+    std::uint64_t seed = 1;
+    double physicsBudgetMs = 8.0;                ///< per frame, held to p99 by `tumble budget`
+    std::array<double, 3> cameraEye{0.0, 1.5, 5.0};
+    std::array<double, 3> cameraTarget{0.0, 1.0, 0.0};
+    double cameraFovDeg = 45.0;
+    int renderWidth = 1280;
+    int renderHeight = 720;
+
+    /// Simulated time of one frame, s.
+    double frameSeconds() const { return dt * substeps; }
+};
+
+/// One scripted input: an action on a named entity at a fixed step.
+struct EventDef {
+    std::uint64_t step = 0;            ///< the fixed step at whose start it applies
+    std::string entity;
+    std::string action;
+    std::vector<double> value;         ///< the `value` key: one number or an array of numbers
+    std::array<double, 3> position{};  ///< the `position` key (disturb)
+    double radius = 0.0;               ///< the `radius` key (disturb), m
+    double amount = 0.0;               ///< the `amount` key (disturb), m
+    int line = 0;                      ///< where it was written, for messages
+};
+
+} // namespace tumble

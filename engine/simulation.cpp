@@ -1,0 +1,125 @@
+#include "engine/simulation.h"
+
+#include "components/name.h"
+#include "engine/dump.h"
+#include "engine/json.h"
+
+#include <cmath>
+
+namespace tumble {
+
+namespace {
+
+/// Applies the events due at this step, in file order.
+void applyEvents(World& world, const Catalog& catalog, const StepContext& ctx) {
+    EventQueue& queue = world.resource<EventQueue>();
+    while (queue.next < queue.events.size() && queue.events[queue.next].step <= ctx.step) {
+        const EventDef& ev = queue.events[queue.next++];
+        if (ev.step < ctx.step) {
+            continue; // due before the run started (cannot happen from step 0; kept for resumed runs)
+        }
+        // the loader checked the entity and the action; the entity may have been destroyed since
+        for (Entity e : world.entities()) {
+            const Name* name = world.tryGet<Name>(e);
+            if (!name || name->value != ev.entity) {
+                continue;
+            }
+            for (const EventAction& a : catalog.actions()) {
+                if (a.action == ev.action && a.appliesTo(world, e)) {
+                    a.apply(world, e, ev);
+                    break;
+                }
+            }
+            break;
+        }
+    }
+}
+
+} // namespace
+
+Simulation::Simulation(const Catalog& catalog, const std::string& path, std::string text,
+                       const std::vector<std::string>& overrides)
+    : m_catalog(catalog), m_schedule(m_profiler),
+      m_scenario(loadScenario(catalog, path, std::move(text), overrides, m_world)),
+      m_loop(secondsToNs(m_scenario.scene.dt), m_scenario.scene.substeps) {
+    m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
+    m_world.setResource<SceneDef>(m_scenario.scene);
+    m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0});
+    m_schedule.add(Phase::Input, "events",
+                   [&catalog](World& w, const StepContext& ctx) { applyEvents(w, catalog, ctx); });
+    for (const SystemEntry& s : catalog.systems()) {
+        m_schedule.add(s.phase, s.name, s.fn);
+    }
+}
+
+void Simulation::runFrame() {
+    const SceneDef& scene = m_scenario.scene;
+    m_profiler.beginFrame(m_frame);
+    StepContext ctx;
+    ctx.dt = scene.dt;
+    ctx.seed = scene.seed;
+    ctx.frame = m_frame;
+    // headless: exactly one frame period per frame, so exactly `substeps` steps
+    const Tick tick = m_loop.advance(m_loop.stepNs() * scene.substeps);
+    for (int i = 0; i < tick.steps; ++i) {
+        ctx.step = m_step;
+        ctx.time = static_cast<double>(m_step) * scene.dt;
+        m_schedule.run(Phase::Input, m_world, ctx);
+        m_schedule.run(Phase::Fixed, m_world, ctx);
+        ++m_step;
+    }
+    ctx.time = time();
+    ctx.alpha = tick.alpha;
+    m_schedule.run(Phase::Frame, m_world, ctx);
+    m_profiler.endFrame();
+    ++m_frame;
+}
+
+std::uint64_t Simulation::hash() const {
+    return stateHash(m_world, m_catalog);
+}
+
+void Simulation::appendDump(std::string& out) const {
+    appendDumpLine(out, m_world, m_catalog, m_frame, time(), hash());
+}
+
+namespace {
+/// Milliseconds to the nanosecond: the clock's resolution, and short to read.
+double roundMs(double ms) {
+    return std::round(ms * 1e6) / 1e6;
+}
+} // namespace
+
+std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames) {
+    std::string out;
+    JsonWriter w(out);
+    const FrameStats f = profiler.frameStats();
+    w.beginObject().key("scene").value(scene.name).key("frames").value(frames).key("dt").value(scene.dt);
+    w.key("substeps").value(scene.substeps);
+    w.key("budget").beginObject().key("physics_ms").value(scene.physicsBudgetMs);
+    w.key("frame_ms").value(roundMs(scene.frameSeconds() * 1000.0)).endObject();
+    auto slots = [&](bool phases) {
+        for (const SlotStats& s : profiler.slotStats()) {
+            if (s.isPhase != phases) {
+                continue;
+            }
+            w.beginObject().key("name").value(s.name).key("phase").value(phaseName(s.phase));
+            w.key("calls").value(s.calls).key("mean_ms").value(roundMs(s.meanMs));
+            w.key("p50_ms").value(roundMs(s.p50Ms)).key("p99_ms").value(roundMs(s.p99Ms));
+            w.key("max_ms").value(roundMs(s.maxMs)).endObject();
+        }
+    };
+    w.key("systems").beginArray();
+    slots(false);
+    w.endArray().key("phases").beginArray();
+    slots(true);
+    w.endArray();
+    w.key("frame").beginObject().key("physics_p50_ms").value(roundMs(f.physicsP50Ms));
+    w.key("physics_p99_ms").value(roundMs(f.physicsP99Ms)).key("physics_max_ms").value(roundMs(f.physicsMaxMs));
+    w.key("render_p50_ms").value(roundMs(f.renderP50Ms)).key("over_budget_frames").value(f.overBudgetFrames);
+    w.endObject().endObject();
+    out += '\n';
+    return out;
+}
+
+} // namespace tumble

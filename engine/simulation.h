@@ -1,0 +1,67 @@
+#pragma once
+// A simulation: one loaded scenario in one world, with the schedule built from the catalog's systems and
+// the fixed-step loop that drives them. A frame runs, for each of its fixed steps, the input phase (events
+// due at that step are applied at its start) and the fixed phase; then the frame phase once. Headless
+// runs feed the loop exactly one frame period per frame, so every frame has `substeps` steps and no time
+// is ever dropped: the same scenario gives the same bits.
+
+#include "engine/catalog.h"
+#include "engine/fixed_loop.h"
+#include "engine/profiler.h"
+#include "engine/scenario.h"
+#include "engine/schedule.h"
+#include "engine/world.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace tumble {
+
+/// The scripted events of a run, as a world resource; the engine's "events" input system applies them.
+struct EventQueue {
+    std::vector<EventDef> events; ///< sorted by step
+    std::size_t next = 0;         ///< first event not yet applied
+};
+
+/// One scenario running in one world; see the header comment.
+class Simulation {
+public:
+    /// Loads the scenario (throws ScenarioError) and builds the schedule.
+    Simulation(const Catalog& catalog, const std::string& path, std::string text,
+               const std::vector<std::string>& overrides);
+
+    /// Advance one frame.
+    void runFrame();
+
+    const Scenario& scenario() const { return m_scenario; }
+    const SceneDef& scene() const { return m_scenario.scene; }
+    World& world() { return m_world; }
+    const World& world() const { return m_world; }
+    Profiler& profiler() { return m_profiler; }
+    const Schedule& schedule() const { return m_schedule; }
+    const Catalog& catalog() const { return m_catalog; }
+
+    std::uint64_t frame() const { return m_frame; }   ///< frames completed
+    std::uint64_t step() const { return m_step; }     ///< fixed steps completed
+    double time() const { return static_cast<double>(m_step) * m_scenario.scene.dt; } ///< simulated, s
+
+    std::uint64_t hash() const;
+    void appendDump(std::string& out) const;
+
+private:
+    const Catalog& m_catalog;
+    World m_world;
+    Profiler m_profiler;
+    Schedule m_schedule;
+    Scenario m_scenario;
+    FixedLoop m_loop;
+    std::uint64_t m_frame = 0;
+    std::uint64_t m_step = 0;
+};
+
+/// The budget summary of CONTRACT.md, as JSON.
+std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames);
+
+} // namespace tumble

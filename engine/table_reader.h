@@ -1,0 +1,126 @@
+#pragma once
+// Reading one TOML table against its schema. The schema is the sequence of typed reads a loader makes
+// (number with a range, integer, choice among names, fixed-size vector, ...): every read names a key as
+// known, checks the value's type, range and finiteness, and finish() rejects any key that no read named,
+// suggesting the nearest known one. Every failure throws ScenarioError carrying file:line:col of the value
+// (or of the --set override that supplied it), so the first problem is what the user sees.
+
+#include <toml++/toml.h>
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace tumble {
+
+/// A problem in a scenario or its overrides; what() is "file:line:col: what is wrong".
+class ScenarioError : public std::runtime_error {
+public:
+    ScenarioError(std::string file, int line, int column, const std::string& message);
+
+    const std::string& file() const { return m_file; }
+    int line() const { return m_line; }       ///< 0 when unknown
+    int column() const { return m_column; }   ///< 0 when unknown
+    const std::string& message() const { return m_message; }
+
+private:
+    std::string m_file;
+    int m_line;
+    int m_column;
+    std::string m_message;
+};
+
+/// What the readers of one scenario share: its path and which nodes came from --set overrides.
+struct LoadContext {
+    std::string file;                                     ///< shown in every message
+    std::map<const toml::node*, std::string> overrideOf;  ///< node -> the "--set KEY=VALUE" that made it
+
+    /// Throws ScenarioError located at the node (or at its override).
+    [[noreturn]] void fail(const toml::node* at, const std::string& message) const;
+    [[noreturn]] void fail(const toml::source_region& at, const std::string& message) const;
+};
+
+/// Limits every scenario obeys, so that no input can exhaust memory or time.
+struct Limits {
+    static constexpr std::size_t kMaxFileBytes = 16u << 20;    ///< scenario file size
+    static constexpr std::size_t kMaxArray = 1u << 20;         ///< elements of any one array
+    static constexpr std::size_t kMaxString = 4096;            ///< characters of any one string
+    static constexpr std::int64_t kMaxEntities = 100000;       ///< entities after repeat/scatter
+};
+
+/// Typed reads of one table; see the header comment.
+class TableReader {
+public:
+    /// where: how messages name the table, e.g. "[scene]" or "entity 'bob' [springs]".
+    TableReader(const toml::table& table, std::string where, const LoadContext& ctx);
+
+    const toml::table& table() const { return m_table; }
+    const std::string& where() const { return m_where; }
+    const LoadContext& context() const { return m_ctx; }
+
+    /// True if the key is present (and names it as known).
+    bool has(std::string_view key);
+    /// The raw node, or nullptr (names the key as known).
+    const toml::node* node(std::string_view key);
+
+    /// A finite number in [lo, hi]; integers are accepted.
+    double number(std::string_view key, double fallback, double lo, double hi);
+    double requiredNumber(std::string_view key, double lo, double hi);
+    std::int64_t integer(std::string_view key, std::int64_t fallback, std::int64_t lo, std::int64_t hi);
+    bool boolean(std::string_view key, bool fallback);
+    std::string string(std::string_view key, std::string fallback);
+    std::string requiredString(std::string_view key);
+    /// One of the given names.
+    std::string choice(std::string_view key, std::string fallback, std::initializer_list<std::string_view> names);
+    /// An array of exactly N finite numbers, each in [lo, hi].
+    template <std::size_t N>
+    std::array<double, N> vector(std::string_view key, std::array<double, N> fallback, double lo, double hi) {
+        const toml::node* n = node(key);
+        if (!n) {
+            return fallback;
+        }
+        std::array<double, N> out{};
+        readNumbers(*n, key, out.data(), N, lo, hi);
+        return out;
+    }
+    /// [min, max] with min <= max, each in [lo, hi]; a single number means min = max.
+    std::pair<double, double> range(std::string_view key, std::pair<double, double> fallback, double lo, double hi);
+    /// An array of at most maxLen elements, or nullptr when absent.
+    const toml::array* array(std::string_view key, std::size_t maxLen);
+    /// A sub-table, or nullptr when absent.
+    const toml::table* subtable(std::string_view key);
+
+    /// Fail at a key's value (or at the table when the key is absent).
+    [[noreturn]] void fail(std::string_view key, const std::string& message) const;
+    /// Fail at a node inside this table.
+    [[noreturn]] void failAt(const toml::node& at, const std::string& message) const { m_ctx.fail(&at, message); }
+    /// Reject every key that no read has named.
+    void finish() const;
+
+    /// Reads N finite numbers in [lo, hi] from an array node (used for nested arrays, too).
+    void readNumbers(const toml::node& n, std::string_view key, double* out, std::size_t count, double lo,
+                     double hi) const;
+
+private:
+    std::string label(std::string_view key) const;
+    void noteKnown(std::string_view key);
+    double toNumber(const toml::node& n, std::string_view key, double lo, double hi) const;
+
+    const toml::table& m_table;
+    std::string m_where;
+    const LoadContext& m_ctx;
+    std::vector<std::string> m_known;
+};
+
+/// The known name closest to a typo (edit distance at most 2), or "" when none is close.
+std::string nearestName(std::string_view typo, const std::vector<std::string>& known);
+
+/// The TOML type of a node, for messages ("a string", "an array", ...).
+std::string describeType(const toml::node& n);
+
+} // namespace tumble

@@ -1,0 +1,101 @@
+#include "engine/world.h"
+
+#include <limits>
+
+namespace tumble {
+
+Entity Commands::spawn() {
+    return m_world.create();
+}
+
+void Commands::destroy(Entity e) {
+    m_queue.emplace_back([e](World& w) {
+        if (w.alive(e)) {
+            w.destroy(e);
+        }
+    });
+}
+
+void Commands::flush() {
+    // changes may queue further changes; apply until the queue stays empty, in order
+    std::size_t next = 0;
+    while (next < m_queue.size()) {
+        auto change = std::move(m_queue[next]);
+        ++next;
+        change(m_world);
+    }
+    m_queue.clear();
+}
+
+Entity World::create() {
+    Entity e;
+    if (!m_free.empty()) {
+        e.index = m_free.back();
+        m_free.pop_back();
+        e.generation = m_generations[e.index];
+    } else {
+        if (m_generations.size() >= Entity::kInvalidIndex) {
+            throw std::length_error("world: out of entity slots");
+        }
+        e.index = static_cast<std::uint32_t>(m_generations.size());
+        e.generation = 0;
+        m_generations.push_back(0);
+        m_alive.push_back(0);
+    }
+    m_alive[e.index] = 1;
+    ++m_living;
+    return e;
+}
+
+void World::destroy(Entity e) {
+    requireAlive(e, "destroy");
+    requireUnlocked("destroy");
+    for (auto& p : m_pools) {
+        if (p) {
+            p->erase(e.index);
+        }
+    }
+    m_alive[e.index] = 0;
+    --m_living;
+    // a slot whose generation would wrap is retired for good, so an old handle can never match again
+    if (m_generations[e.index] == std::numeric_limits<std::uint32_t>::max()) {
+        return;
+    }
+    ++m_generations[e.index];
+    m_free.push_back(e.index);
+}
+
+std::vector<Entity> World::entities() const {
+    std::vector<Entity> out;
+    out.reserve(m_living);
+    for (std::uint32_t i = 0; i < m_generations.size(); ++i) {
+        if (m_alive[i]) {
+            out.push_back(Entity{i, m_generations[i]});
+        }
+    }
+    return out;
+}
+
+void World::requireAlive(Entity e, const char* what) const {
+    if (!alive(e)) {
+        throw StaleEntityError(std::string("world: ") + what + " on a stale or null entity handle (index " +
+                               std::to_string(e.index) + ", generation " + std::to_string(e.generation) +
+                               ")");
+    }
+}
+
+void World::requireUnlocked(const char* what) const {
+    if (m_iterating > 0) {
+        throw WorldLockedError(std::string("world: ") + what +
+                               " while a view is iterating; queue it with world.commands()");
+    }
+}
+
+void World::failGet(Entity e) const {
+    if (!alive(e)) {
+        requireAlive(e, "get");
+    }
+    throw StaleEntityError("world: entity " + std::to_string(e.index) + " has no component of that type");
+}
+
+} // namespace tumble

@@ -1,0 +1,378 @@
+#pragma once
+// The ECS world. Tumble's own, because neither EnTT nor flecs is packaged for Debian 12 and nothing may be
+// downloaded at build time; it is kept small on purpose.
+//
+// - Entities are {index, generation} handles (engine/entity.h); stale handles are detected on every access.
+// - Each component type lives in its own sparse set: a dense array of values packed by type, a dense array
+//   of owning entities beside it, and a sparse index -> dense position table. Systems iterate the dense
+//   arrays, which are contiguous.
+// - A view joins one to three component types: it walks the smallest set and probes the others. A const
+//   type in the view's list hands out const references (read-only access, visible in the signature).
+// - Resources are world-wide singletons keyed by type (the Bullet world, the random streams, ...).
+// - While a view iterates, the component sets must not change shape. Structural changes made inside a
+//   phase go through commands(): they are queued and applied, in the order they were made, when the
+//   schedule flushes at the end of the phase. Changing a set during iteration directly is an error.
+
+#include "engine/entity.h"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace tumble {
+
+/// Thrown when a handle names an entity that was destroyed (or never existed) or lacks a component.
+struct StaleEntityError : std::logic_error {
+    using std::logic_error::logic_error;
+};
+
+/// Thrown when the world is changed structurally while a view is iterating.
+struct WorldLockedError : std::logic_error {
+    using std::logic_error::logic_error;
+};
+
+namespace detail {
+inline std::uint32_t nextTypeId() {
+    static std::uint32_t counter = 0;
+    return counter++;
+}
+/// A small dense id per C++ type, used to index the world's tables.
+template <class T>
+std::uint32_t typeId() {
+    static const std::uint32_t id = nextTypeId();
+    return id;
+}
+} // namespace detail
+
+/// Type-erased face of a component set, so that destroying an entity can clear it from every set.
+class PoolBase {
+public:
+    virtual ~PoolBase() = default;
+    virtual bool contains(std::uint32_t index) const = 0;
+    virtual void erase(std::uint32_t index) = 0;
+    virtual std::size_t size() const = 0;
+};
+
+/// The sparse set of one component type.
+template <class T>
+class Pool final : public PoolBase {
+public:
+    static constexpr std::uint32_t kAbsent = 0xffffffffu;
+
+    bool contains(std::uint32_t index) const override {
+        return index < m_sparse.size() && m_sparse[index] != kAbsent;
+    }
+    std::size_t size() const override { return m_dense.size(); }
+
+    template <class... Args>
+    T& emplace(Entity e, Args&&... args) {
+        if (e.index >= m_sparse.size()) {
+            m_sparse.resize(std::size_t(e.index) + 1, kAbsent);
+        }
+        if (m_sparse[e.index] != kAbsent) {
+            // replace the value in place: one component of a type per entity
+            T& slot = m_values[m_sparse[e.index]];
+            slot = T{std::forward<Args>(args)...};
+            return slot;
+        }
+        m_sparse[e.index] = static_cast<std::uint32_t>(m_dense.size());
+        m_dense.push_back(e);
+        m_values.emplace_back(std::forward<Args>(args)...);
+        return m_values.back();
+    }
+
+    // swap-remove keeps the dense arrays packed
+    void erase(std::uint32_t index) override {
+        if (!contains(index)) {
+            return;
+        }
+        const std::uint32_t pos = m_sparse[index];
+        const std::uint32_t last = static_cast<std::uint32_t>(m_dense.size() - 1);
+        if (pos != last) {
+            m_dense[pos] = m_dense[last];
+            m_values[pos] = std::move(m_values[last]);
+            m_sparse[m_dense[pos].index] = pos;
+        }
+        m_dense.pop_back();
+        m_values.pop_back();
+        m_sparse[index] = kAbsent;
+    }
+
+    T& at(std::uint32_t index) { return m_values[m_sparse[index]]; }
+    const T& at(std::uint32_t index) const { return m_values[m_sparse[index]]; }
+
+    /// Owning entities, packed; entities()[i] owns values()[i].
+    const std::vector<Entity>& entities() const { return m_dense; }
+    std::vector<T>& values() { return m_values; }
+    const std::vector<T>& values() const { return m_values; }
+
+private:
+    std::vector<std::uint32_t> m_sparse; ///< entity index -> position in the dense arrays, or kAbsent
+    std::vector<Entity> m_dense;         ///< owner of each packed value
+    std::vector<T> m_values;             ///< the components, packed
+};
+
+class World;
+
+/// Structural changes queued during a phase and applied in order when the phase ends.
+class Commands {
+public:
+    explicit Commands(World& world) : m_world(world) {}
+
+    /// A new entity, alive at once (its handle can be used in further commands); components come later.
+    Entity spawn();
+    /// Queue adding (or replacing) a component.
+    template <class T>
+    void emplace(Entity e, T value);
+    /// Queue the destruction of an entity (a no-op if it is already gone when applied).
+    void destroy(Entity e);
+    /// Queue any structural change.
+    void push(std::function<void(World&)> change) { m_queue.push_back(std::move(change)); }
+
+    std::size_t pending() const { return m_queue.size(); }
+    /// Apply everything queued, in order; changes queued by those changes are applied too.
+    void flush();
+
+private:
+    World& m_world;
+    std::vector<std::function<void(World&)>> m_queue;
+};
+
+template <class... Ts>
+class View;
+
+/// Entities, their components in sparse sets, world-wide resources, and a queue of deferred changes.
+class World {
+public:
+    World() : m_commands(*this) {}
+    World(const World&) = delete;
+    World& operator=(const World&) = delete;
+
+    // ---- entities
+
+    /// A new, empty entity. Allowed during iteration (it touches no component set).
+    Entity create();
+    /// Destroy an entity and every component it has; its handles become stale. Throws on a stale handle.
+    void destroy(Entity e);
+    /// True while the entity exists and the handle's generation matches.
+    bool alive(Entity e) const {
+        return e.index < m_generations.size() && m_alive[e.index] && m_generations[e.index] == e.generation;
+    }
+    /// Number of living entities.
+    std::size_t size() const { return m_living; }
+    /// Living entities in ascending slot order (a fixed order, used for dumps and hashes).
+    std::vector<Entity> entities() const;
+
+    // ---- components
+
+    template <class T, class... Args>
+    T& emplace(Entity e, Args&&... args) {
+        requireAlive(e, "emplace");
+        requireUnlocked("emplace");
+        return pool<T>().emplace(e, std::forward<Args>(args)...);
+    }
+    template <class T>
+    void remove(Entity e) {
+        requireAlive(e, "remove");
+        requireUnlocked("remove");
+        if (auto* p = findPool<T>()) {
+            p->erase(e.index);
+        }
+    }
+    template <class T>
+    bool has(Entity e) const {
+        const auto* p = findPool<T>();
+        return alive(e) && p && p->contains(e.index);
+    }
+    /// The component, or nullptr if the entity lacks it or is not alive.
+    template <class T>
+    T* tryGet(Entity e) {
+        auto* p = findPool<T>();
+        return alive(e) && p && p->contains(e.index) ? &p->at(e.index) : nullptr;
+    }
+    template <class T>
+    const T* tryGet(Entity e) const {
+        const auto* p = findPool<T>();
+        return alive(e) && p && p->contains(e.index) ? &p->at(e.index) : nullptr;
+    }
+    /// The component; throws StaleEntityError if the handle is stale or the component absent.
+    template <class T>
+    T& get(Entity e) {
+        T* c = tryGet<T>(e);
+        if (!c) {
+            failGet(e);
+        }
+        return *c;
+    }
+    template <class T>
+    const T& get(Entity e) const {
+        const T* c = tryGet<T>(e);
+        if (!c) {
+            failGet(e);
+        }
+        return *c;
+    }
+
+    /// The packed set of a component type (created empty on first use).
+    template <class T>
+    Pool<T>& pool() {
+        const auto id = detail::typeId<T>();
+        if (id >= m_pools.size()) {
+            m_pools.resize(std::size_t(id) + 1);
+        }
+        if (!m_pools[id]) {
+            m_pools[id] = std::make_unique<Pool<T>>();
+        }
+        return static_cast<Pool<T>&>(*m_pools[id]);
+    }
+    template <class T>
+    const Pool<T>* findPool() const {
+        const auto id = detail::typeId<T>();
+        return id < m_pools.size() ? static_cast<const Pool<T>*>(m_pools[id].get()) : nullptr;
+    }
+    template <class T>
+    Pool<T>* findPool() {
+        const auto id = detail::typeId<T>();
+        return id < m_pools.size() ? static_cast<Pool<T>*>(m_pools[id].get()) : nullptr;
+    }
+
+    /// Entities having every one of Ts; const types are read-only.
+    template <class... Ts>
+    View<Ts...> view();
+
+    // ---- resources
+
+    template <class T, class... Args>
+    T& setResource(Args&&... args) {
+        const auto id = detail::typeId<T>();
+        if (id >= m_resources.size()) {
+            m_resources.resize(std::size_t(id) + 1);
+        }
+        auto holder = std::make_shared<T>(std::forward<Args>(args)...);
+        T& ref = *holder;
+        m_resources[id] = std::move(holder);
+        return ref;
+    }
+    template <class T>
+    T* tryResource() {
+        const auto id = detail::typeId<T>();
+        return id < m_resources.size() ? static_cast<T*>(m_resources[id].get()) : nullptr;
+    }
+    /// The resource; throws std::logic_error if it was never set.
+    template <class T>
+    T& resource() {
+        T* r = tryResource<T>();
+        if (!r) {
+            throw std::logic_error("world has no resource of the requested type");
+        }
+        return *r;
+    }
+
+    // ---- deferred changes
+
+    Commands& commands() { return m_commands; }
+
+    /// Held by a view while it iterates; structural changes are refused while any is held.
+    struct IterationLock {
+        explicit IterationLock(World& w) : world(w) { ++world.m_iterating; }
+        ~IterationLock() { --world.m_iterating; }
+        IterationLock(const IterationLock&) = delete;
+        IterationLock& operator=(const IterationLock&) = delete;
+        World& world;
+    };
+
+private:
+    void requireAlive(Entity e, const char* what) const;
+    void requireUnlocked(const char* what) const;
+    [[noreturn]] void failGet(Entity e) const;
+
+    std::vector<std::uint32_t> m_generations; ///< current generation of each slot
+    std::vector<std::uint8_t> m_alive;        ///< 1 while the slot holds a living entity
+    std::vector<std::uint32_t> m_free;        ///< slots to reuse, most recently freed last
+    std::size_t m_living = 0;
+    int m_iterating = 0;                      ///< views iterating right now
+    std::vector<std::unique_ptr<PoolBase>> m_pools;      ///< by detail::typeId
+    std::vector<std::shared_ptr<void>> m_resources;      ///< by detail::typeId
+    Commands m_commands;
+};
+
+template <class T>
+void Commands::emplace(Entity e, T value) {
+    // an entity destroyed before the flush simply does not get the component
+    m_queue.emplace_back([e, v = std::move(value)](World& w) mutable {
+        if (w.alive(e)) {
+            w.emplace<T>(e, std::move(v));
+        }
+    });
+}
+
+/// Iterates the entities that have all of Ts, calling fn(Entity, Ts&...) on each.
+template <class... Ts>
+class View {
+    static_assert(sizeof...(Ts) >= 1 && sizeof...(Ts) <= 3, "a view joins one to three component types");
+
+public:
+    explicit View(World& world) : m_world(world), m_pools(world.pool<std::remove_const_t<Ts>>()...) {}
+
+    template <class Fn>
+    void each(Fn&& fn) {
+        World::IterationLock lock(m_world);
+        const PoolBase* driver = smallest();
+        // the driver's entity list is stable during iteration: structural changes are locked out
+        const std::vector<Entity>& owners = ownersOf(driver);
+        for (std::size_t i = 0; i < owners.size(); ++i) {
+            const Entity e = owners[i];
+            if (containsAll(e.index)) {
+                fn(e, static_cast<Ts&>(std::get<Pool<std::remove_const_t<Ts>>&>(m_pools).at(e.index))...);
+            }
+        }
+    }
+
+    /// Number of entities visited by each() (walks the join).
+    std::size_t count() {
+        std::size_t n = 0;
+        each([&n](Entity, Ts&...) { ++n; });
+        return n;
+    }
+
+private:
+    bool containsAll(std::uint32_t index) const {
+        return (std::get<Pool<std::remove_const_t<Ts>>&>(m_pools).contains(index) && ...);
+    }
+    const PoolBase* smallest() const {
+        const PoolBase* best = nullptr;
+        auto consider = [&best](const PoolBase& p) {
+            if (!best || p.size() < best->size()) {
+                best = &p;
+            }
+        };
+        (consider(std::get<Pool<std::remove_const_t<Ts>>&>(m_pools)), ...);
+        return best;
+    }
+    const std::vector<Entity>& ownersOf(const PoolBase* p) const {
+        const std::vector<Entity>* out = nullptr;
+        auto match = [&](const auto& pool) {
+            if (&pool == p) {
+                out = &pool.entities();
+            }
+        };
+        (match(std::get<Pool<std::remove_const_t<Ts>>&>(m_pools)), ...);
+        return *out;
+    }
+
+    World& m_world;
+    std::tuple<Pool<std::remove_const_t<Ts>>&...> m_pools;
+};
+
+template <class... Ts>
+View<Ts...> World::view() {
+    return View<Ts...>(*this);
+}
+
+} // namespace tumble

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# One entry point for a fresh Debian 12 machine (run as root, or with sudo available):
+#   scripts/bootstrap.sh demo   install what is missing, build Release, run the default demo headlessly
+#   scripts/bootstrap.sh test   install what is missing, build Release, run the whole suite through ctest
+#   scripts/bootstrap.sh asan   the same suite in the AddressSanitizer + UBSan build (build-asan/)
+# It is safe to run again: packages already there are not reinstalled, builds are incremental.
+set -euo pipefail
+
+mode=${1:-demo}
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+jobs=$(nproc 2>/dev/null || echo 2)
+
+# the Debian packages the build and the tests need; one list, kept in step with README.md
+packages=(
+    g++ cmake ninja-build pkg-config git
+    libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev
+    libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
+    libegl-dev libgles-dev libegl-mesa0
+)
+
+install_missing() {
+    local missing=()
+    for p in "${packages[@]}"; do
+        if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+            missing+=("$p")
+        fi
+    done
+    if [ ${#missing[@]} -eq 0 ]; then
+        return
+    fi
+    echo "bootstrap: installing ${missing[*]}"
+    local sudo=()
+    if [ "$(id -u)" -ne 0 ]; then
+        sudo=(sudo)
+    fi
+    "${sudo[@]}" apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+build() {
+    local dir=$1
+    shift
+    cmake -S "$root" -B "$root/$dir" -G Ninja "$@"
+    cmake --build "$root/$dir" -j "$jobs"
+}
+
+install_missing
+case "$mode" in
+demo)
+    build build -DCMAKE_BUILD_TYPE=Release
+    out="$root/out/pendulum"
+    "$root/build/tumble" run pendulum --no-render --out "$out" \
+        --profile "$out/profile.json" --trace "$out/trace.json" --dump "$out/state.jsonl"
+    echo "bootstrap: outputs are in $out (profile.json, trace.json, state.jsonl)"
+    ;;
+test)
+    build build -DCMAKE_BUILD_TYPE=Release
+    ctest --test-dir "$root/build" --output-on-failure -j "$jobs"
+    ;;
+asan)
+    build build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTUMBLE_SANITIZE=ON -DTUMBLE_BENCH=OFF
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+        ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs"
+    ;;
+*)
+    echo "usage: scripts/bootstrap.sh demo|test|asan" >&2
+    exit 2
+    ;;
+esac

@@ -1,0 +1,115 @@
+// Engine benchmarks: what the profiler costs per timed scope and per frame, views, and the state hash.
+//   build/tests/bench/tumble_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+#include "engine/hash.h"
+#include "engine/profiler.h"
+#include "engine/schedule.h"
+#include "engine/world.h"
+
+#include <benchmark/benchmark.h>
+
+#include <vector>
+
+namespace tumble {
+namespace {
+
+constexpr int kSystems = 12;           // about what a full scene registers
+constexpr double kFrameMs = 1000.0 / 60.0;
+
+// one timed scope: two clock reads and the bookkeeping
+void BM_ProfilerScope(benchmark::State& state) {
+    Profiler p;
+    const int slot = p.addSlot("x", Phase::Fixed, false);
+    for (auto _ : state) {
+        TUMBLE_PROFILE_SCOPE(p, slot);
+        benchmark::ClobberMemory();
+    }
+}
+BENCHMARK(BM_ProfilerScope);
+
+// a frame of empty systems through the profiled schedule (input, fixed, frame phases)...
+void BM_ProfiledFrame(benchmark::State& state) {
+    Profiler p;
+    Schedule s(p);
+    int counter = 0;
+    for (int i = 0; i < kSystems; ++i) {
+        s.add(i < 2 ? Phase::Input : i < 10 ? Phase::Fixed : Phase::Frame, "s" + std::to_string(i),
+              [&counter](World&, const StepContext&) { benchmark::DoNotOptimize(++counter); });
+    }
+    World w;
+    StepContext ctx;
+    std::uint64_t frame = 0;
+    for (auto _ : state) {
+        p.beginFrame(frame++);
+        s.run(Phase::Input, w, ctx);
+        s.run(Phase::Fixed, w, ctx);
+        s.run(Phase::Frame, w, ctx);
+        p.endFrame();
+    }
+    state.counters["pct_of_60fps_frame"] =
+        benchmark::Counter(100.0 / (kFrameMs * 1e-3), benchmark::Counter::kIsIterationInvariantRate |
+                                                          benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ProfiledFrame);
+
+// ...and the same systems called without any profiling, for the ratio
+void BM_UnprofiledFrame(benchmark::State& state) {
+    std::vector<SystemFn> fns;
+    int counter = 0;
+    for (int i = 0; i < kSystems; ++i) {
+        fns.emplace_back([&counter](World&, const StepContext&) { benchmark::DoNotOptimize(++counter); });
+    }
+    World w;
+    StepContext ctx;
+    for (auto _ : state) {
+        for (auto& f : fns) {
+            f(w, ctx);
+        }
+        w.commands().flush();
+    }
+}
+BENCHMARK(BM_UnprofiledFrame);
+
+struct Pos {
+    double x, y, z;
+};
+struct Vel {
+    double x, y, z;
+};
+
+// a view joining two component types over 100k entities, half of which have both
+void BM_ViewTwoComponents(benchmark::State& state) {
+    World w;
+    for (int i = 0; i < 100000; ++i) {
+        const Entity e = w.create();
+        w.emplace<Pos>(e, Pos{0, 0, 0});
+        if (i % 2 == 0) {
+            w.emplace<Vel>(e, Vel{1, 2, 3});
+        }
+    }
+    for (auto _ : state) {
+        w.view<Pos, const Vel>().each([](Entity, Pos& p, const Vel& v) {
+            p.x += v.x * 0.01;
+            p.y += v.y * 0.01;
+            p.z += v.z * 0.01;
+        });
+        benchmark::ClobberMemory();
+    }
+    state.SetItemsProcessed(state.iterations() * 50000);
+}
+BENCHMARK(BM_ViewTwoComponents);
+
+// the state hash over 24 MB (a million particles' positions)
+void BM_StateHash(benchmark::State& state) {
+    std::vector<double> data(3'000'000, 1.25);
+    for (auto _ : state) {
+        Hasher h;
+        h.add(data);
+        benchmark::DoNotOptimize(h.digest());
+    }
+    state.SetBytesProcessed(state.iterations() * std::int64_t(data.size() * sizeof(double)));
+}
+BENCHMARK(BM_StateHash);
+
+} // namespace
+} // namespace tumble

@@ -1,0 +1,184 @@
+// The `tumble` program as users run it: verbs, help, exit codes, and output files that match CONTRACT.md.
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <sstream>
+
+namespace tumble {
+namespace {
+
+using test::readFile;
+using test::runTumble;
+using test::tempPath;
+using test::writeTemp;
+using nlohmann::json;
+
+std::vector<json> jsonLines(const std::string& text) {
+    std::vector<json> out;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+        out.push_back(json::parse(line));
+    }
+    return out;
+}
+
+TEST(Cli, HelpForEveryVerb) {
+    for (const char* verb : {"list", "check", "run"}) {
+        const auto r = runTumble({verb, "--help"});
+        EXPECT_EQ(r.exitCode, 0) << verb << ": " << r.err;
+        EXPECT_NE(r.out.find("Usage"), std::string::npos) << verb;
+    }
+    const auto top = runTumble({"--help"});
+    EXPECT_EQ(top.exitCode, 0);
+    for (const char* verb : {"list", "check", "run"}) {
+        EXPECT_NE(top.out.find(verb), std::string::npos) << verb;
+    }
+    const auto run = runTumble({"run", "--help"});
+    for (const char* opt : {"--frames", "--out", "--no-render", "--dump", "--dump-every", "--profile", "--trace",
+                            "--set", "--quiet"}) {
+        EXPECT_NE(run.out.find(opt), std::string::npos) << opt;
+    }
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+    EXPECT_EQ(runTumble({}).exitCode, 2);
+    EXPECT_EQ(runTumble({"fly"}).exitCode, 2);
+    EXPECT_EQ(runTumble({"run"}).exitCode, 2) << "the scenario is required";
+    const auto r = runTumble({"run", "pendulum", "--frams", "3"});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--frams"), std::string::npos) << r.err;
+    EXPECT_EQ(runTumble({"run", "pendulum", "--frames", "-3"}).exitCode, 2);
+    EXPECT_EQ(runTumble({"run", "pendulum", "--frames", "ten"}).exitCode, 2);
+    EXPECT_EQ(runTumble({"run", "pendulum", "--dump-every", "0"}).exitCode, 2);
+}
+
+TEST(Cli, ListShowsEveryDemoWithItsDescription) {
+    const auto r = runTumble({"list"});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("pendulum"), std::string::npos);
+    EXPECT_NE(r.out.find("Spring pendulums"), std::string::npos);
+}
+
+TEST(Cli, CheckPrintsNothingOnSuccess) {
+    const auto r = runTumble({"check", "pendulum"});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(r.out.empty());
+    EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
+TEST(Cli, RunWritesProfileTraceAndDumpPerContract) {
+    const std::string profile = tempPath("p.json"), trace = tempPath("t.json"), dump = tempPath("d.jsonl");
+    const auto r = runTumble({"run", "pendulum", "--no-render", "--frames", "30", "--profile", profile, "--trace",
+                              trace, "--dump", dump});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("wrote " + profile), std::string::npos) << "it says where its outputs are: " << r.err;
+
+    // profile
+    const json p = json::parse(readFile(profile));
+    EXPECT_EQ(p["scene"], "pendulum");
+    EXPECT_EQ(p["frames"], 30);
+    EXPECT_TRUE(p["dt"].is_number());
+    EXPECT_TRUE(p["budget"]["physics_ms"].is_number());
+    EXPECT_TRUE(p["budget"]["frame_ms"].is_number());
+    bool sawSprings = false;
+    for (const auto& s : p["systems"]) {
+        for (const char* k : {"name", "phase", "calls", "mean_ms", "p50_ms", "p99_ms", "max_ms"}) {
+            EXPECT_TRUE(s.contains(k)) << k;
+        }
+        if (s["name"] == "springs") {
+            sawSprings = true;
+            EXPECT_EQ(s["phase"], "fixed");
+            EXPECT_EQ(s["calls"], 30 * 4) << "pendulum has 4 substeps";
+            EXPECT_LE(s["p50_ms"].get<double>(), s["p99_ms"].get<double>());
+            EXPECT_LE(s["p99_ms"].get<double>(), s["max_ms"].get<double>());
+        }
+    }
+    EXPECT_TRUE(sawSprings);
+    for (const char* k : {"physics_p50_ms", "physics_p99_ms", "physics_max_ms", "render_p50_ms", "over_budget_frames"}) {
+        EXPECT_TRUE(p["frame"].contains(k)) << k;
+    }
+
+    // trace: valid trace-event JSON, an event per system per step and one per frame
+    const json t = json::parse(readFile(trace));
+    int springs = 0, frames = 0;
+    for (const auto& e : t["traceEvents"]) {
+        if (e["ph"] == "X") {
+            EXPECT_GE(e["dur"].get<double>(), 0.0);
+            springs += e["name"] == "springs";
+            frames += e["name"] == "frame";
+        }
+    }
+    EXPECT_EQ(springs, 30 * 4);
+    EXPECT_EQ(frames, 30);
+
+    // dump: the last frame only, by default
+    const auto lines = jsonLines(readFile(dump));
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_EQ(lines[0]["frame"], 30);
+    EXPECT_EQ(lines[0]["entities"]["chain"]["kind"], "springs");
+    EXPECT_EQ(lines[0]["entities"]["chain"]["x"].size(), 3u);
+}
+
+TEST(Cli, DumpEveryKFramesStartsWithTheInitialState) {
+    const std::string dump = tempPath("every.jsonl");
+    const auto r = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "25", "--dump", dump,
+                              "--dump-every", "10"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto lines = jsonLines(readFile(dump));
+    std::vector<int> frames;
+    for (const auto& l : lines) {
+        frames.push_back(l["frame"]);
+    }
+    EXPECT_EQ(frames, (std::vector<int>{0, 10, 20, 25}));
+    EXPECT_EQ(lines[0]["t"], 0.0);
+}
+
+TEST(Cli, TwoRunsDumpTheSameBits) {
+    const std::string a = tempPath("a.jsonl"), b = tempPath("b.jsonl");
+    ASSERT_EQ(runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "120", "--dump", a,
+                         "--dump-every", "1"}).exitCode, 0);
+    ASSERT_EQ(runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "120", "--dump", b,
+                         "--dump-every", "1"}).exitCode, 0);
+    EXPECT_EQ(readFile(a), readFile(b));
+}
+
+TEST(Cli, OverridesReachTheRun) {
+    const std::string dump = tempPath("o.jsonl");
+    const auto r = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "2", "--dump", dump, "--set",
+                              "scene.substeps=1", "--set", "scene.dt=0.01"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_DOUBLE_EQ(jsonLines(readFile(dump))[0]["t"].get<double>(), 0.02);
+}
+
+TEST(Cli, DefaultProfileGoesIntoTheOutputFolder) {
+    const std::string out = tempPath("outdir");
+    const auto r = runTumble({"run", "pendulum", "--no-render", "--frames", "3", "--out", out});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(out + "/profile.json"));
+    EXPECT_NE(r.err.find(out + "/profile.json"), std::string::npos) << r.err;
+}
+
+TEST(Cli, QuietIsQuietAndPipesGetNoProgressBar) {
+    const auto quiet = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "3", "--out", tempPath("q")});
+    EXPECT_EQ(quiet.exitCode, 0);
+    EXPECT_TRUE(quiet.err.empty()) << quiet.err;
+    const auto piped = runTumble({"run", "pendulum", "--no-render", "--frames", "3", "--out", tempPath("q2")});
+    EXPECT_EQ(piped.err.find('\r'), std::string::npos) << "no progress bar on a pipe";
+    const auto asked = runTumble({"run", "pendulum", "--no-render", "--progress", "--frames", "3000", "--out",
+                                  tempPath("q3")});
+    EXPECT_NE(asked.err.find("frame 3000/3000"), std::string::npos) << asked.err;
+}
+
+TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
+    const std::string blocker = writeTemp("blocker", "a file, not a folder");
+    const auto r = runTumble({"run", "pendulum", "--no-render", "--dump", blocker + "/d.jsonl"});
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("cannot write " + blocker + "/d.jsonl"), std::string::npos) << r.err;
+}
+
+} // namespace
+} // namespace tumble

@@ -1,0 +1,50 @@
+// Every demo in demos/ loads, runs a few frames headlessly, and dumps a finite state.
+// (Rendered runs and replay verification join when the renderer and replays land.)
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <filesystem>
+
+namespace tumble {
+namespace {
+
+std::vector<std::string> demoNames() {
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(std::string(TUMBLE_SOURCE_DIR) + "/demos")) {
+        if (e.path().extension() == ".toml") {
+            names.push_back(e.path().stem().string());
+        }
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+class Demo : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Demo, RunsHeadlesslyForAFewFrames) {
+    const std::string dump = test::tempPath(GetParam() + ".jsonl");
+    const auto r = test::runTumble({"run", GetParam(), "--no-render", "--frames", "10", "--quiet", "--dump", dump,
+                                    "--out", test::tempPath(GetParam())});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::string text = test::readFile(dump);
+    EXPECT_EQ(text.find("NaN"), std::string::npos);
+    EXPECT_EQ(text.find("Infinity"), std::string::npos);
+    const auto j = nlohmann::json::parse(text);
+    EXPECT_EQ(j["frame"], 10);
+    EXPECT_FALSE(j["entities"].empty());
+}
+
+TEST_P(Demo, NameMatchesItsFile) {
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + GetParam() + ".toml";
+    EXPECT_EQ(peekScene(path, readScenarioFile(path)).name, GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Demos, Demo, ::testing::ValuesIn(demoNames()),
+                         [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
+
+} // namespace
+} // namespace tumble

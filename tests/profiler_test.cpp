@@ -1,0 +1,118 @@
+#include "engine/profiler.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace tumble {
+namespace {
+
+constexpr std::int64_t kMs = 1'000'000;
+
+TEST(Profiler, SlotStatisticsFromKnownDurations) {
+    Profiler p;
+    const int s = p.addSlot("springs", Phase::Fixed, false);
+    // 1..100 ms: p50 = 50, p99 = 99, mean 50.5, max 100
+    for (int i = 1; i <= 100; ++i) {
+        p.record(s, 0, i * kMs);
+    }
+    const SlotStats st = p.slotStats().at(0);
+    EXPECT_EQ(st.name, "springs");
+    EXPECT_EQ(st.calls, 100u);
+    EXPECT_NEAR(st.meanMs, 50.5, 1e-9);
+    EXPECT_NEAR(st.p50Ms, 50.0, 1e-4);
+    EXPECT_NEAR(st.p99Ms, 99.0, 1e-4);
+    EXPECT_NEAR(st.maxMs, 100.0, 1e-9);
+}
+
+TEST(Profiler, RingBufferKeepsTheMostRecentSamples) {
+    Profiler p(10);
+    const int s = p.addSlot("x", Phase::Fixed, false);
+    for (int i = 0; i < 10; ++i) {
+        p.record(s, 0, 100 * kMs); // old, slow
+    }
+    for (int i = 0; i < 10; ++i) {
+        p.record(s, 0, 1 * kMs); // recent, fast
+    }
+    const SlotStats st = p.slotStats().at(0);
+    EXPECT_NEAR(st.p99Ms, 1.0, 1e-6) << "percentiles come from the ring, which has forgotten the slow calls";
+    EXPECT_NEAR(st.maxMs, 100.0, 1e-9) << "the maximum is over the whole run";
+    EXPECT_EQ(st.calls, 20u);
+}
+
+TEST(Profiler, FramePhysicsSumsFixedPhaseAndCountsOverBudget) {
+    Profiler p;
+    p.setPhysicsBudgetMs(5.0);
+    const int fixed = p.addSlot("phase:fixed", Phase::Fixed, true);
+    const int frame = p.addSlot("phase:frame", Phase::Frame, true);
+    const int sys = p.addSlot("springs", Phase::Fixed, false);
+    for (int f = 0; f < 10; ++f) {
+        p.beginFrame(std::uint64_t(f));
+        // two substeps of 2 ms each (a 6 ms frame every fifth frame)
+        p.record(sys, 0, 2 * kMs);
+        p.record(fixed, 0, 2 * kMs);
+        p.record(fixed, 0, (f % 5 == 4 ? 4 : 2) * kMs);
+        p.record(frame, 0, 1 * kMs);
+        p.endFrame();
+    }
+    const FrameStats fs = p.frameStats();
+    EXPECT_EQ(fs.frames, 10u);
+    EXPECT_NEAR(fs.physicsP50Ms, 4.0, 1e-6) << "system timers must not be counted twice";
+    EXPECT_NEAR(fs.physicsMaxMs, 6.0, 1e-9);
+    EXPECT_NEAR(fs.renderP50Ms, 1.0, 1e-6);
+    EXPECT_EQ(fs.overBudgetFrames, 2u);
+}
+
+TEST(Profiler, ScopedTimerMeasuresItsScope) {
+    Profiler p;
+    const int s = p.addSlot("sleepy", Phase::Frame, false);
+    {
+        TUMBLE_PROFILE_SCOPE(p, s);
+        const std::int64_t until = p.nowNs() + 2 * kMs;
+        while (p.nowNs() < until) {
+        }
+    }
+    const SlotStats st = p.slotStats().at(0);
+    EXPECT_EQ(st.calls, 1u);
+    EXPECT_GE(st.maxMs, 2.0);
+}
+
+TEST(Profiler, TraceIsValidTraceEventJsonWithAnEventPerScopeAndFrame) {
+    Profiler p;
+    p.enableTrace(true);
+    const int fixed = p.addSlot("phase:fixed", Phase::Fixed, true);
+    const int sys = p.addSlot("springs", Phase::Fixed, false);
+    for (int f = 0; f < 3; ++f) {
+        p.beginFrame(std::uint64_t(f));
+        p.record(sys, 10, 5);
+        p.record(fixed, 8, 9);
+        p.endFrame();
+    }
+    const auto j = nlohmann::json::parse(p.traceJson());
+    ASSERT_TRUE(j.contains("traceEvents"));
+    int springs = 0, frames = 0;
+    for (const auto& e : j["traceEvents"]) {
+        ASSERT_TRUE(e.contains("ph"));
+        if (e["ph"] != "X") {
+            continue;
+        }
+        for (const char* k : {"name", "ts", "dur", "pid", "tid"}) {
+            EXPECT_TRUE(e.contains(k)) << k;
+        }
+        springs += e["name"] == "springs";
+        frames += e["name"] == "frame";
+    }
+    EXPECT_EQ(springs, 3);
+    EXPECT_EQ(frames, 3);
+}
+
+TEST(Profiler, NoTraceEventsUnlessEnabled) {
+    Profiler p;
+    const int s = p.addSlot("x", Phase::Fixed, false);
+    p.beginFrame(0);
+    p.record(s, 0, 1);
+    p.endFrame();
+    EXPECT_EQ(p.traceEventCount(), 0u);
+}
+
+} // namespace
+} // namespace tumble

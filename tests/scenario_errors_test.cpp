@@ -1,0 +1,157 @@
+// Malformed scenarios, each run through the real `tumble check` program: it must exit 2 and say what is
+// wrong, naming the file and, where the problem sits on a line, the line.
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace tumble {
+namespace {
+
+using namespace test;
+
+struct BadCase {
+    const char* id;
+    std::string text;
+    std::vector<std::string> extraArgs; ///< after the scenario path
+    int line;                           ///< the line the message must name; 0 when none applies
+    const char* message;                ///< a piece of the message
+};
+
+// a minimal valid scene; cases append to it (it is two lines long)
+const std::string kScene = "[scene]\nname = \"t\"\n";
+// a valid spring entity (lines 3-6 when appended to kScene)
+const std::string kBob = "[[entity]]\nname = \"bob\"\n[entity.springs]\n"
+                         "masses = [ { x = [0, 0, 0], pinned = true }, { x = [1, 0, 0] } ]\nlinks = [ { a = 0, b = 1 } ]\n";
+
+std::vector<BadCase> cases() {
+    return {
+        {"syntax_unterminated_string", kScene + "description = \"oops\n", {}, 3, "TOML syntax error"},
+        {"syntax_garbage", std::string("\x01\x02\xff\xfe garbage", 12), {}, 1, "TOML syntax error"},
+        {"syntax_duplicate_key", kScene + "name = \"again\"\n", {}, 3, "TOML syntax error"},
+        {"no_scene", "[camera]\nfov_deg = 40\n", {}, 0, "needs a [scene] table"},
+        {"scene_not_table", "scene = 3\n", {}, 1, "'scene' must be a table"},
+        {"scene_without_name", "[scene]\ndt = 0.01\n", {}, 1, "[scene] needs 'name'"},
+        {"scene_bad_name", "[scene]\nname = \"../etc\"\n", {}, 2, "must be 1-64 letters"},
+        {"scene_unknown_key", kScene + "dtt = 0.01\n", {}, 3, "unknown key 'dtt' in [scene] (did you mean 'dt'?)"},
+        {"scene_dt_negative", kScene + "dt = -0.01\n", {}, 3, "'dt' in [scene] is -0.01, outside"},
+        {"scene_dt_string", kScene + "dt = \"fast\"\n", {}, 3, "'dt' in [scene] must be a number, not a string"},
+        {"scene_dt_nan", kScene + "dt = nan\n", {}, 3, "must be a finite number"},
+        {"scene_dt_inf", kScene + "dt = inf\n", {}, 3, "must be a finite number"},
+        {"scene_substeps_fraction", kScene + "substeps = 1.5\n", {}, 3, "must be an integer, not a number"},
+        {"scene_substeps_zero", kScene + "substeps = 0\n", {}, 3, "'substeps' in [scene] is 0, outside [1, 1000]"},
+        {"scene_gravity_short", kScene + "gravity = [0, -9.81]\n", {}, 3, "must be an array of 3 numbers, not 2"},
+        {"scene_gravity_element", kScene + "gravity = [0, \"down\", 0]\n", {}, 3, "must be a number, not a string"},
+        {"scene_frames_huge", kScene + "frames = 99999999999999\n", {}, 3, "'frames' in [scene]"},
+        {"top_level_typo", kScene + "[scence]\nx = 1\n", {}, 3, "unknown top-level key 'scence' (did you mean 'scene'?)"},
+        {"camera_eye_is_target", kScene + "[camera]\neye = [1, 1, 1]\ntarget = [1, 1, 1]\n", {}, 5, "must differ from 'eye'"},
+        {"render_width_zero", kScene + "[render]\nwidth = 0\n", {}, 4, "'width' in [render] is 0, outside [16, 8192]"},
+        {"budget_negative", kScene + "[budget]\nphysics_ms = -1\n", {}, 4, "'physics_ms' in [budget]"},
+        {"entity_not_array", "entity = \"bob\"\n" + kScene, {}, 1, "'entity' must be an array of tables"},
+        {"entity_without_name", kScene + "[[entity]]\n[entity.springs]\nmasses = [ { x = [0, 0, 0] } ]\n", {}, 3,
+         "[[entity]] needs 'name'"},
+        {"entity_duplicate_name", kScene + kBob + kBob, {}, 9, "entity name 'bob' is used twice"},
+        {"entity_component_typo", kScene + "[[entity]]\nname = \"bob\"\n[entity.sprngs]\nstiffness = 1\n", {}, 5,
+         "unknown key 'sprngs' in entity 'bob' (did you mean 'springs'?)"},
+        {"entity_planned_component", kScene + "[[entity]]\nname = \"c\"\n[entity.cloth]\nrows = 3\n", {}, 5,
+         "'cloth' component is part of the scenario format but not implemented"},
+        {"entity_transform_typo", kScene + "[[entity]]\nname = \"bob\"\n[entity.transform]\npostion = [0, 0, 0]\n",
+         {}, 6, "unknown key 'postion' in entity 'bob' [transform] (did you mean 'position'?)"},
+        {"springs_no_masses", kScene + "[[entity]]\nname = \"bob\"\n[entity.springs]\nstiffness = 1\n", {}, 5,
+         "needs 'masses'"},
+        {"springs_link_out_of_range",
+         kScene + "[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0] } , { x = [1, 0, 0] } ]\n"
+                  "links = [ { a = 0, b = 2 } ]\n",
+         {}, 7, "'b' in entity 'bob' [springs] links[0] is 2, outside [0, 1]"},
+        {"springs_link_to_itself",
+         kScene + "[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0] } ]\n"
+                  "links = [ { a = 0, b = 0 } ]\n",
+         {}, 7, "must join two different masses"},
+        {"springs_zero_mass",
+         kScene + "[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0], m = 0 } ]\n", {}, 6,
+         "'m' in entity 'bob' [springs] masses[0] is 0, outside"},
+        {"springs_mass_key_typo",
+         kScene + "[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0], pinnd = true } ]\n", {},
+         6, "unknown key 'pinnd' in entity 'bob' [springs] masses[0] (did you mean 'pinned'?)"},
+        {"springs_integrator_typo", kScene + kBob + "integrator = \"rk5\"\n", {}, 8,
+         "expected one of: explicit_euler, midpoint, rk4, symplectic_euler, implicit_euler (did you mean 'rk4'?)"},
+        {"repeat_too_many", kScene + "[[entity]]\nname = \"bob\"\nrepeat = { count = 1000000 }\n", {}, 5,
+         "'count' in entity 'bob' repeat is 1000000, outside"},
+        {"event_unknown_entity", kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bbo\"\naction = \"impulse\"\n", {}, 10,
+         "no entity named 'bbo' (did you mean 'bob'?)"},
+        {"event_action_typo",
+         kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"impluse\"\nvalue = [0, 1, 0]\n", {}, 11,
+         "unknown action 'impluse' (did you mean 'impulse'?)"},
+        {"event_at_and_frame",
+         kScene + kBob + "[[event]]\nat = 1.0\nframe = 3\nentity = \"bob\"\naction = \"impulse\"\n", {}, 10,
+         "needs exactly one of 'at' (seconds) or 'frame'"},
+        {"event_impulse_short_value",
+         kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"impulse\"\nvalue = [0, 1]\n", {}, 12,
+         "action 'impulse': needs value = [x, y, z]"},
+        {"event_pin_bad_index",
+         kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"pin\"\nvalue = [7]\n", {}, 12,
+         "mass index 7"},
+        {"joint_not_available", kScene + "[[joint]]\ntype = \"hinge\"\n", {}, 3, "[[joint]] connects rigid bodies"},
+        {"set_unknown_target", kScene, {"--set", "nobody.springs.k=1"}, 0,
+         "--set nobody.springs.k=1: no section or entity named 'nobody'"},
+        {"set_out_of_range", kScene, {"--set", "scene.dt=-1"}, 0, "--set scene.dt=-1: 'dt' in [scene] is -1, outside"},
+        {"set_without_equals", kScene, {"--set", "scene.dt"}, 0, "--set scene.dt: expected KEY=VALUE"},
+        {"set_unknown_key", kScene + kBob, {"--set", "bob.springs.stifness=5"}, 0,
+         "--set bob.springs.stifness=5: unknown key 'stifness' in entity 'bob' [springs] (did you mean 'stiffness'?)"},
+        {"set_wrong_type", kScene + kBob, {"--set", "bob.springs.integrator=3"}, 0,
+         "'integrator' in entity 'bob' [springs] must be a string, not an integer"},
+    };
+}
+
+void PrintTo(const BadCase& c, std::ostream* os) {
+    *os << c.id;
+}
+
+class MalformedScenario : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(MalformedScenario, ExitsTwoNamingFileLineAndProblem) {
+    const BadCase& c = GetParam();
+    const std::string path = writeTemp(std::string(c.id) + ".toml", c.text);
+    std::vector<std::string> args{"check", path};
+    args.insert(args.end(), c.extraArgs.begin(), c.extraArgs.end());
+    const ProcessResult r = runTumble(args);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    const std::string where = c.line > 0 ? path + ":" + std::to_string(c.line) + ":" : path + ": ";
+    EXPECT_NE(r.err.find(where), std::string::npos) << "expected the location '" << where << "' in: " << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << "expected '" << c.message << "' in: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << "errors go to stderr: " << r.out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenario, MalformedScenario, ::testing::ValuesIn(cases()),
+                         [](const ::testing::TestParamInfo<BadCase>& p) { return std::string(p.param.id); });
+
+TEST(MalformedScenario, MissingFileIsNamed) {
+    const ProcessResult r = runTumble({"check", "/nonexistent/scene.toml"});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("/nonexistent/scene.toml"), std::string::npos) << r.err;
+}
+
+TEST(MalformedScenario, UnknownDemoNameIsNamed) {
+    const ProcessResult r = runTumble({"run", "no_such_demo", "--no-render"});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("no_such_demo: no scenario file or demo by that name"), std::string::npos) << r.err;
+}
+
+TEST(MalformedScenario, DirectoryIsNotAScenario) {
+    const std::string dir = tempPath("a_folder.toml");
+    std::filesystem::create_directories(dir);
+    const ProcessResult r = runTumble({"check", dir});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+}
+
+TEST(MalformedScenario, EmptyFileNeedsAScene) {
+    const ProcessResult r = runTumble({"check", writeTemp("empty.toml", "")});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("needs a [scene] table"), std::string::npos) << r.err;
+}
+
+} // namespace
+} // namespace tumble

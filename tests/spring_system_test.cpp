@@ -1,0 +1,173 @@
+// The spring system against physics: free fall, the harmonic and damped oscillators, energy, pins.
+
+#include "components/name.h"
+#include "components/spring_network.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace tumble {
+namespace {
+
+using test::simulate;
+
+SpringNetwork& network(Simulation& sim, const std::string& name) {
+    SpringNetwork* out = nullptr;
+    sim.world().view<const Name, SpringNetwork>().each([&](Entity, const Name& n, SpringNetwork& net) {
+        if (n.value == name) {
+            out = &net;
+        }
+    });
+    return *out;
+}
+
+/// One free mass on a spring of rest length 1 from a pin at the origin, no gravity: a 1D oscillator along x
+/// with x(0) = 1 + a, v(0) = 0.
+std::string oscillator(double dt, double k, double m, double kd, double amplitude) {
+    return "[scene]\nname = \"osc\"\ngravity = [0, 0, 0]\ndt = " + std::to_string(dt) +
+           "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [" +
+           std::to_string(1.0 + amplitude) + ", 0, 0], m = " + std::to_string(m) +
+           " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " + std::to_string(k) +
+           ", kd = " + std::to_string(kd) + " } ]\n";
+}
+
+/// Closed form of m x'' + c x' + k x = 0 with x(0) = a, x'(0) = 0 (underdamped).
+double dampedDisplacement(double t, double k, double m, double c, double a) {
+    const double zeta = c / (2.0 * std::sqrt(k * m));
+    const double w0 = std::sqrt(k / m);
+    const double wd = w0 * std::sqrt(1.0 - zeta * zeta);
+    return a * std::exp(-zeta * w0 * t) * (std::cos(wd * t) + zeta * w0 / wd * std::sin(wd * t));
+}
+
+double displacementAfter(double dt, double seconds, double k, double m, double c, double a) {
+    auto sim = simulate(oscillator(dt, k, m, c, a));
+    const auto steps = static_cast<int>(std::lround(seconds / dt));
+    for (int i = 0; i < steps; ++i) {
+        sim->runFrame();
+    }
+    return network(*sim, "bob").x[1].x - 1.0;
+}
+
+TEST(SpringSystem, FreeFallMatchesTheSymplecticEulerSolutionAndConvergesAtFirstOrder) {
+    const double g = 9.81;
+    double previousError = 0.0;
+    for (double dt : {0.01, 0.005, 0.0025}) {
+        auto sim = simulate("[scene]\nname = \"fall\"\ndt = " + std::to_string(dt) +
+                            "\n[[entity]]\nname = \"ball\"\n[entity.springs]\nmasses = [ { x = [0, 10, 0] } ]\n");
+        const int steps = static_cast<int>(std::lround(1.0 / dt));
+        for (int i = 0; i < steps; ++i) {
+            sim->runFrame();
+        }
+        const double t = sim->time();
+        const double y = network(*sim, "ball").x[0].y;
+        const double exact = 10.0 - 0.5 * g * t * t;
+        const double error = std::abs(y - exact);
+        // symplectic Euler on constant acceleration is off by exactly g dt t / 2
+        EXPECT_NEAR(error, 0.5 * g * dt * t, 1e-9) << "dt " << dt;
+        if (previousError > 0.0) {
+            EXPECT_NEAR(previousError / error, 2.0, 0.01) << "first order: halving dt halves the error";
+        }
+        previousError = error;
+    }
+}
+
+TEST(SpringSystem, UndampedPeriodMatchesTwoPiRootMOverK) {
+    const double k = 100.0, m = 0.5, dt = 1e-4;
+    const double expected = 2.0 * std::numbers::pi * std::sqrt(m / k);
+    auto sim = simulate(oscillator(dt, k, m, 0.0, 0.1));
+    // time between successive upward zero crossings of the displacement
+    std::vector<double> crossings;
+    double prev = network(*sim, "bob").x[1].x - 1.0;
+    while (crossings.size() < 6) {
+        sim->runFrame();
+        const double d = network(*sim, "bob").x[1].x - 1.0;
+        if (prev < 0.0 && d >= 0.0) {
+            crossings.push_back(sim->time() - dt * d / (d - prev)); // linear interpolation in the step
+        }
+        prev = d;
+        ASSERT_LT(sim->time(), 100.0 * expected) << "the oscillator never crossed zero";
+    }
+    const double period = (crossings.back() - crossings.front()) / double(crossings.size() - 1);
+    EXPECT_NEAR(period, expected, 1e-3 * expected);
+}
+
+TEST(SpringSystem, DampedOscillatorMatchesClosedFormAndConvergesAtFirstOrder) {
+    const double k = 40.0, m = 1.0, c = 1.5, a = 0.2, T = 2.0;
+    const double exact = dampedDisplacement(T, k, m, c, a);
+    const double e1 = std::abs(displacementAfter(0.002, T, k, m, c, a) - exact);
+    const double e2 = std::abs(displacementAfter(0.001, T, k, m, c, a) - exact);
+    const double e3 = std::abs(displacementAfter(0.0005, T, k, m, c, a) - exact);
+    EXPECT_LT(e3, 2e-3 * a);
+    EXPECT_NEAR(e1 / e2, 2.0, 0.3) << e1 << " " << e2;
+    EXPECT_NEAR(e2 / e3, 2.0, 0.3) << e2 << " " << e3;
+}
+
+TEST(SpringSystem, SymplecticEulerKeepsUndampedEnergyBounded) {
+    const double k = 100.0, m = 1.0, dt = 0.01, a = 0.1;
+    auto sim = simulate(oscillator(dt, k, m, 0.0, a));
+    const double e0 = 0.5 * k * a * a;
+    auto energy = [&] {
+        const SpringNetwork& net = network(*sim, "bob");
+        const double x = net.x[1].x - 1.0, v = net.v[1].x;
+        return 0.5 * k * x * x + 0.5 * m * v * v;
+    };
+    // 200 periods (period 0.63 s): the relative error oscillates with amplitude ~ omega dt / 2 and never grows
+    double worstEarly = 0.0, worstLate = 0.0;
+    const int steps = 12600;
+    for (int i = 0; i < steps; ++i) {
+        sim->runFrame();
+        const double rel = std::abs(energy() - e0) / e0;
+        double& worst = i < steps / 10 ? worstEarly : worstLate;
+        worst = std::max(worst, rel);
+    }
+    const double omegaDt = std::sqrt(k / m) * dt;
+    EXPECT_LT(worstLate, omegaDt) << "the energy error stays within the symplectic bound";
+    EXPECT_LT(worstLate, 1.05 * worstEarly) << "and does not grow over 200 periods";
+}
+
+TEST(SpringSystem, PinnedMassesDoNotMove) {
+    auto sim = simulate(oscillator(0.01, 100.0, 1.0, 0.5, 0.3));
+    for (int i = 0; i < 300; ++i) {
+        sim->runFrame();
+    }
+    const SpringNetwork& net = network(*sim, "bob");
+    EXPECT_EQ(net.x[0], (Vec3{0.0, 0.0, 0.0}));
+    EXPECT_EQ(net.v[0], (Vec3{0.0, 0.0, 0.0}));
+}
+
+TEST(SpringSystem, ImpulseChangesMomentumByItsValue) {
+    auto sim = simulate(R"(
+[scene]
+name = "kick"
+gravity = [0, 0, 0]
+[[entity]]
+name = "pair"
+[entity.springs]
+masses = [ { x = [0, 0, 0], m = 1.0 }, { x = [1, 0, 0], m = 3.0 } ]
+links = [ { a = 0, b = 1 } ]
+[[event]]
+frame = 2
+entity = "pair"
+action = "impulse"
+value = [0, 0, 8]
+)");
+    auto momentum = [&] {
+        const SpringNetwork& net = network(*sim, "pair");
+        Vec3 p;
+        for (std::size_t i = 0; i < net.v.size(); ++i) {
+            p += net.v[i] * (1.0 / net.invMass[i]);
+        }
+        return p;
+    };
+    sim->runFrame();
+    sim->runFrame();
+    EXPECT_EQ(momentum().z, 0.0) << "the event is due at the start of step 2, not before";
+    sim->runFrame();
+    EXPECT_NEAR(momentum().z, 8.0, 1e-12);
+}
+
+} // namespace
+} // namespace tumble

@@ -1,0 +1,92 @@
+#include "tests/test_support.h"
+
+#include "systems/builtin.h"
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace tumble::test {
+
+namespace {
+
+std::string shellQuote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) {
+        if (c == '\'') {
+            q += "'\\''";
+        } else {
+            q += c;
+        }
+    }
+    return q + "'";
+}
+
+} // namespace
+
+std::string tempPath(const std::string& name) {
+    // one folder per test process, so parallel ctest runs do not collide
+    static const std::string dir = [] {
+        std::string d = std::string(TUMBLE_TEST_TMP) + "/" + std::to_string(::getpid());
+        std::filesystem::create_directories(d);
+        return d;
+    }();
+    const std::string p = dir + "/" + name;
+    std::filesystem::remove_all(p);
+    return p;
+}
+
+std::string writeTemp(const std::string& name, const std::string& text) {
+    const std::string p = tempPath(name);
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+}
+
+std::string readFile(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+ProcessResult runTumble(const std::vector<std::string>& args) {
+    const std::string errPath = tempPath("stderr.txt");
+    std::string cmd = shellQuote(TUMBLE_BINARY);
+    for (const std::string& a : args) {
+        cmd += " " + shellQuote(a);
+    }
+    cmd += " </dev/null 2>" + shellQuote(errPath);
+    ProcessResult r;
+    FILE* p = ::popen(cmd.c_str(), "r");
+    if (!p) {
+        return r;
+    }
+    std::array<char, 4096> buf;
+    std::size_t n;
+    while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0) {
+        r.out.append(buf.data(), n);
+    }
+    const int status = ::pclose(p);
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.err = readFile(errPath);
+    return r;
+}
+
+const Catalog& builtinCatalog() {
+    static const Catalog catalog = [] {
+        Catalog c;
+        registerBuiltinSystems(c);
+        return c;
+    }();
+    return catalog;
+}
+
+std::unique_ptr<Simulation> simulate(const std::string& text, const std::vector<std::string>& overrides) {
+    return std::make_unique<Simulation>(builtinCatalog(), "test.toml", text, overrides);
+}
+
+} // namespace tumble::test

@@ -1,0 +1,38 @@
+#pragma once
+// Helpers shared by the tests: running the real `tumble` program, temporary files, loading a scenario.
+
+#include "engine/catalog.h"
+#include "engine/simulation.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace tumble::test {
+
+/// What a run of the `tumble` program did.
+struct ProcessResult {
+    int exitCode = -1;
+    std::string out; ///< stdout
+    std::string err; ///< stderr
+};
+
+/// Runs the built `tumble` with the given arguments (each shell-quoted), stdin from /dev/null.
+ProcessResult runTumble(const std::vector<std::string>& args);
+
+/// A fresh path under the tests' temporary folder (the folder exists; the file does not).
+std::string tempPath(const std::string& name);
+
+/// Writes text to a fresh temporary file and returns its path.
+std::string writeTemp(const std::string& name, const std::string& text);
+
+/// Reads a whole file.
+std::string readFile(const std::string& path);
+
+/// The catalog of built-in systems.
+const Catalog& builtinCatalog();
+
+/// A simulation of scenario text (throws ScenarioError like the CLI would).
+std::unique_ptr<Simulation> simulate(const std::string& text, const std::vector<std::string>& overrides = {});
+
+} // namespace tumble::test
