@@ -14,7 +14,6 @@ namespace tumble {
 namespace {
 
 constexpr int kSystems = 12;           // about what a full scene registers
-constexpr double kFrameMs = 1000.0 / 60.0;
 
 // one timed scope: two clock reads and the bookkeeping
 void BM_ProfilerScope(benchmark::State& state) {
@@ -46,9 +45,6 @@ void BM_ProfiledFrame(benchmark::State& state) {
         s.run(Phase::Frame, w, ctx);
         p.endFrame();
     }
-    state.counters["pct_of_60fps_frame"] =
-        benchmark::Counter(100.0 / (kFrameMs * 1e-3), benchmark::Counter::kIsIterationInvariantRate |
-                                                          benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_ProfiledFrame);
 
