@@ -304,10 +304,12 @@ private:
 
 template <class T>
 void Commands::emplace(Entity e, T value) {
+    // held through a shared_ptr so that move-only components can be queued (std::function must copy);
     // an entity destroyed before the flush simply does not get the component
-    m_queue.emplace_back([e, v = std::move(value)](World& w) mutable {
+    auto held = std::make_shared<T>(std::move(value));
+    m_queue.emplace_back([e, held](World& w) {
         if (w.alive(e)) {
-            w.emplace<T>(e, std::move(v));
+            w.emplace<T>(e, std::move(*held));
         }
     });
 }

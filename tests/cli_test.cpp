@@ -5,8 +5,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <sstream>
+#include <thread>
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace tumble {
 namespace {
@@ -178,6 +184,31 @@ TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
     const auto r = runTumble({"run", "pendulum", "--no-render", "--dump", blocker + "/d.jsonl"});
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("cannot write " + blocker + "/d.jsonl"), std::string::npos) << r.err;
+}
+
+TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
+    const std::string dump = tempPath("term.jsonl"), profile = tempPath("term.json");
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        const int devnull = ::open("/dev/null", O_WRONLY);
+        ::dup2(devnull, STDERR_FILENO);
+        ::execl(TUMBLE_BINARY, TUMBLE_BINARY, "run", "pendulum", "--no-render", "--frames", "1000000000", "--dump",
+                dump.c_str(), "--dump-every", "1000", "--profile", profile.c_str(), static_cast<char*>(nullptr));
+        ::_exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status)) << "it must stop by itself, not die of the signal";
+    EXPECT_EQ(WEXITSTATUS(status), 130);
+    const json p = json::parse(readFile(profile));
+    EXPECT_GT(p["frames"].get<int>(), 0);
+    EXPECT_LT(p["frames"].get<long>(), 1000000000L);
+    const auto lines = jsonLines(readFile(dump));
+    ASSERT_GE(lines.size(), 2u) << "the initial state and the frame it stopped at";
+    EXPECT_EQ(lines.back()["frame"], p["frames"]) << "the last line is the frame where it stopped";
 }
 
 } // namespace

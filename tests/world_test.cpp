@@ -183,6 +183,14 @@ TEST(World, QueuedChangesToADestroyedEntityAreDropped) {
     EXPECT_FALSE(w.alive(e));
 }
 
+TEST(World, MoveOnlyComponentsCanBeQueued) {
+    World w;
+    const Entity e = w.create();
+    w.commands().emplace(e, std::make_unique<int>(5));
+    w.commands().flush();
+    EXPECT_EQ(*w.get<std::unique_ptr<int>>(e), 5);
+}
+
 TEST(World, EntitiesListIsInSlotOrder) {
     World w;
     const Entity a = w.create();
