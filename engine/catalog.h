@@ -21,7 +21,6 @@ namespace tumble {
 /// Reads `[entity.KEY]` and puts the resulting components on the entity.
 struct ComponentLoader {
     std::string key;     ///< the scenario key, e.g. "springs"
-    std::string summary; ///< one line for messages and --help
     std::function<void(TableReader& reader, World& world, Entity entity, const SceneDef& scene)> load;
 };
 
@@ -38,11 +37,11 @@ struct StateCodec {
 /// An event action on entities that have some component.
 struct EventAction {
     std::string action;  ///< e.g. "impulse"
-    std::string needs;   ///< what the entity must be, for messages, e.g. "a springs entity"
-    std::function<bool(const World&, Entity)> appliesTo;
+    std::string needs;   ///< what the entity must be, for messages, e.g. "a spring network"
+    std::function<bool(const World&, Entity)> appliesTo;   ///< true if the entity takes this action
     /// Load-time check of the event's fields; returns a message when they do not fit.
     std::function<std::optional<std::string>(const World&, Entity, const EventDef&)> check;
-    std::function<void(World&, Entity, const EventDef&)> apply;
+    std::function<void(World&, Entity, const EventDef&)> apply; ///< run at the start of the event's step
 };
 
 /// A system and the phase it runs in; systems of a phase run in registration order.

@@ -22,23 +22,10 @@ namespace {
 
 std::atomic<bool> g_interrupted{false};
 
+static_assert(std::atomic<bool>::is_always_lock_free, "the signal handler needs a lock-free flag");
+
 extern "C" void onInterrupt(int) {
     g_interrupted.store(true);
-}
-
-/// Writes a whole file, making its folder; throws std::runtime_error on failure.
-void writeFile(const std::string& path, const std::string& text) {
-    const fs::path p(path);
-    if (p.has_parent_path()) {
-        std::error_code ec;
-        fs::create_directories(p.parent_path(), ec);
-    }
-    std::ofstream out(p, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) {
-        throw std::runtime_error("cannot write " + path);
-    }
 }
 
 /// An output file opened at the start of a run, so that a bad path fails before any work is done.
@@ -57,10 +44,16 @@ public:
     }
     void write(const std::string& text) {
         m_out << text;
+        check();
+    }
+    std::ostream& stream() { return m_out; }
+    /// Throws if anything written so far failed.
+    void check() const {
         if (!m_out) {
             throw std::runtime_error("cannot write " + m_path);
         }
     }
+    const std::string& path() const { return m_path; }
     void close() {
         m_out.close();
         if (!m_out) {
@@ -133,19 +126,29 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     const std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
     const std::string outDir = o.out.empty() ? "out/" + scene.name : o.out;
 
-    // open what streams during the run before doing any work
-    std::optional<OutputFile> dump;
+    // open every output before doing any work, so a bad path costs nothing; the budget summary is always
+    // written: to --profile, else into the output folder
+    std::optional<OutputFile> dump, trace;
     if (!o.dump.empty()) {
         dump.emplace(o.dump);
     }
-    sim.profiler().enableTrace(!o.trace.empty());
+    if (!o.trace.empty()) {
+        trace.emplace(o.trace);
+    }
+    OutputFile profile(o.profile.empty() ? outDir + "/profile.json" : o.profile);
+    sim.profiler().enableTrace(trace.has_value());
     if (!o.noRender) {
         std::fprintf(stderr, "tumble: note: this build has no renderer yet; simulating only "
                              "(--no-render silences this note)\n");
     }
 
-    std::signal(SIGINT, onInterrupt);
-    std::signal(SIGTERM, onInterrupt);
+    // the first Ctrl-C stops the run at the next frame and keeps the outputs; a second one kills it
+    struct sigaction stop {};
+    stop.sa_handler = onInterrupt;
+    stop.sa_flags = SA_RESETHAND;
+    sigemptyset(&stop.sa_mask);
+    ::sigaction(SIGINT, &stop, nullptr);
+    ::sigaction(SIGTERM, &stop, nullptr);
     ProgressBar bar(frames, scene.frameSeconds(), !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
     std::string pending;
     auto dumpNow = [&] {
@@ -181,15 +184,19 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     std::vector<std::string> wrote;
     if (dump) {
         dump->close();
-        wrote.push_back(o.dump);
+        wrote.push_back(dump->path());
     }
-    // the budget summary is always written: to --profile, else into the output folder
-    const std::string profilePath = o.profile.empty() ? outDir + "/profile.json" : o.profile;
-    writeFile(profilePath, budgetSummaryJson(sim.profiler(), scene, sim.frame()));
-    wrote.push_back(profilePath);
-    if (!o.trace.empty()) {
-        writeFile(o.trace, sim.profiler().traceJson());
-        wrote.push_back(o.trace);
+    profile.write(budgetSummaryJson(sim.profiler(), scene, sim.frame()));
+    profile.close();
+    wrote.push_back(profile.path());
+    if (trace) {
+        sim.profiler().writeTrace(trace->stream());
+        trace->close();
+        wrote.push_back(trace->path());
+        if (sim.profiler().traceTruncated()) {
+            std::fprintf(stderr, "tumble: warning: the trace keeps only its first %zu events; trace fewer frames "
+                                 "to see them all\n", Profiler::kMaxTraceEvents);
+        }
     }
     const FrameStats f = sim.profiler().frameStats();
     if (!o.quiet) {
@@ -238,16 +245,21 @@ std::string demoDirectory() {
 
 std::string resolveScenario(const std::string& nameOrPath) {
     std::error_code ec;
-    if (fs::exists(nameOrPath, ec)) {
+    if (fs::is_regular_file(nameOrPath, ec)) {
         return nameOrPath;
     }
     const bool looksLikePath = nameOrPath.find('/') != std::string::npos ||
                                fs::path(nameOrPath).extension() == ".toml";
     if (!looksLikePath) {
         const std::string demo = demoDirectory() + "/" + nameOrPath + ".toml";
-        if (fs::exists(demo, ec)) {
+        if (fs::is_regular_file(demo, ec)) {
             return demo;
         }
+    }
+    if (fs::exists(nameOrPath, ec)) {
+        return nameOrPath; // not a regular file: reading it says so
+    }
+    if (!looksLikePath) {
         throw ScenarioError(nameOrPath, 0, 0, "no scenario file or demo by that name (`tumble list` shows the demos)");
     }
     throw ScenarioError(nameOrPath, 0, 0, "cannot open the scenario: no such file");
@@ -273,11 +285,13 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
     run->add_option("--profile", o.profile, "Write the budget summary as JSON to FILE (default <out>/profile.json)")->type_name("FILE");
     run->add_option("--trace", o.trace, "Write a Chrome trace-event JSON of every system's timing to FILE")
         ->type_name("FILE");
-    run->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")->type_name("FILE");
+    CLI::Option* dumpOption =
+        run->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")->type_name("FILE");
     run->add_option("--dump-every", o.dumpEvery,
                     "Dump every K frames, starting with the initial state (default: the last frame only)")
         ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
-        ->type_name("K");
+        ->type_name("K")
+        ->needs(dumpOption);
     run->add_flag("--quiet", o.quiet, "No progress bar and no summary");
     run->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
 

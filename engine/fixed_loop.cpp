@@ -25,14 +25,23 @@ FixedLoop::FixedLoop(std::int64_t stepNs, int maxStepsPerFrame) : m_stepNs(stepN
 
 Tick FixedLoop::advance(std::int64_t elapsedNs) {
     Tick t;
-    m_accumulatorNs += std::max<std::int64_t>(elapsedNs, 0);
+    // whole steps beyond the cap plus one are dropped anyway; dropping them first (keeping the fraction of a
+    // step) means a clock jump cannot overflow the accumulator
+    std::int64_t elapsed = std::max<std::int64_t>(elapsedNs, 0);
+    const std::int64_t most = (std::int64_t(m_maxSteps) + 1) * m_stepNs;
+    if (elapsed > most) {
+        const std::int64_t excess = elapsed - most;
+        t.droppedNs = excess - excess % m_stepNs;
+        elapsed -= t.droppedNs;
+    }
+    m_accumulatorNs += elapsed;
     const std::int64_t whole = m_accumulatorNs / m_stepNs;
     t.steps = static_cast<int>(std::min<std::int64_t>(whole, m_maxSteps));
     m_accumulatorNs -= std::int64_t(t.steps) * m_stepNs;
     if (whole > m_maxSteps) {
         // over the cap: keep only the fraction of a step, drop the rest
         const std::int64_t keep = m_accumulatorNs % m_stepNs;
-        t.droppedNs = m_accumulatorNs - keep;
+        t.droppedNs += m_accumulatorNs - keep;
         m_accumulatorNs = keep;
     }
     t.alpha = static_cast<double>(m_accumulatorNs) / static_cast<double>(m_stepNs);

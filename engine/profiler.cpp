@@ -27,7 +27,11 @@ double Profiler::Ring::percentile(double p) const {
     return sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
 }
 
-Profiler::Profiler(std::size_t ringCapacity) : m_origin(Clock::now()), m_capacity(std::max<std::size_t>(ringCapacity, 1)) {}
+Profiler::Profiler(std::size_t ringCapacity)
+    : m_origin(TimeSource::now()), m_capacity(std::max<std::size_t>(ringCapacity, 1)) {
+    m_physics.samples.reserve(m_capacity);
+    m_render.samples.reserve(m_capacity);
+}
 
 int Profiler::addSlot(std::string name, Phase phase, bool isPhase) {
     Slot s{std::move(name), phase, isPhase, 0, 0, 0, {}};
@@ -52,12 +56,25 @@ void Profiler::endFrame() {
     if (m_framePhysicsNs > m_budgetNs) {
         ++m_overBudget;
     }
-    if (m_trace) {
-        m_events.push_back({-1, m_frame, m_frameStartNs, end - m_frameStartNs});
+    keepTraceEvent({-1, m_frame, m_frameStartNs, end - m_frameStartNs});
+}
+
+void Profiler::keepTraceEvent(const TraceEvent& e) noexcept {
+    if (!m_trace || m_traceTruncated) {
+        return;
+    }
+    if (m_events.size() >= kMaxTraceEvents) {
+        m_traceTruncated = true;
+        return;
+    }
+    try {
+        m_events.push_back(e);
+    } catch (const std::bad_alloc&) {
+        m_traceTruncated = true;
     }
 }
 
-void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) {
+void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) noexcept {
     Slot& s = m_slots[std::size_t(slot)];
     ++s.calls;
     s.sumNs += durationNs;
@@ -70,9 +87,7 @@ void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) {
             m_frameRenderNs += durationNs;
         }
     }
-    if (m_trace) {
-        m_events.push_back({slot, m_frame, startNs, durationNs});
-    }
+    keepTraceEvent({slot, m_frame, startNs, durationNs});
 }
 
 std::vector<SlotStats> Profiler::slotStats() const {
@@ -104,10 +119,9 @@ FrameStats Profiler::frameStats() const {
     return f;
 }
 
-std::string Profiler::traceJson() const {
-    std::string out;
-    out.reserve(m_events.size() * 120 + 64);
-    JsonWriter w(out);
+void Profiler::writeTrace(std::ostream& out) const {
+    std::string buf;
+    JsonWriter w(buf);
     w.beginObject().key("displayTimeUnit").value("ms").key("traceEvents").beginArray();
     // name the one process and thread so Perfetto labels the track
     w.beginObject().key("name").value("process_name").key("ph").value("M").key("pid").value(1).key("tid").value(1);
@@ -127,10 +141,20 @@ std::string Profiler::traceJson() const {
         w.key("dur").value(static_cast<double>(e.durationNs) * 1e-3).key("pid").value(1).key("tid").value(1);
         w.key("args").beginObject().key("frame").value(e.frame).endObject();
         w.endObject();
+        if (buf.size() > (1u << 16)) {
+            out << buf;
+            buf.clear();
+        }
+    }
+    if (m_traceTruncated) {
+        // an instant event at the end of what was kept says why the trace stops there
+        const double at = m_events.empty() ? 0.0 : static_cast<double>(m_events.back().startNs) * 1e-3;
+        w.beginObject().key("name").value("trace truncated: event limit reached").key("ph").value("i");
+        w.key("s").value("g").key("ts").value(at).key("pid").value(1).key("tid").value(1).endObject();
     }
     w.endArray().endObject();
-    out += '\n';
-    return out;
+    buf += '\n';
+    out << buf;
 }
 
 } // namespace tumble

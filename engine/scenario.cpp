@@ -133,9 +133,6 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
     }
     scene.description = s.string("description", "");
     scene.dt = s.number("dt", 1.0 / 60.0, 1e-6, 1.0);
-    if (scene.dt <= 0.0) {
-        s.fail("dt", "'dt' in [scene] must be positive");
-    }
     scene.substeps = static_cast<int>(s.integer("substeps", 1, 1, 1000));
     scene.frames = s.integer("frames", 600, 0, 100'000'000);
     scene.gravity = s.vector<3>("gravity", scene.gravity, -1e4, 1e4);
@@ -173,6 +170,25 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
 }
 
 // ---- entities
+
+/// Values in a table, counted recursively (a measure of the work of loading it).
+std::size_t countNodes(const toml::node& n) {
+    std::size_t count = 1;
+    if (const toml::table* t = n.as_table()) {
+        for (auto&& [k, v] : *t) {
+            count += countNodes(v);
+        }
+    } else if (const toml::array* a = n.as_array()) {
+        for (const toml::node& v : *a) {
+            count += countNodes(v);
+        }
+    }
+    return count;
+}
+
+std::string_view repeatOrScatterKey(const toml::table& t) {
+    return t.contains("scatter") ? "scatter" : t.contains("repeat") ? "repeat" : "name";
+}
 
 struct Placement {
     std::string name;
@@ -286,6 +302,17 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
         }
         e.finish();
 
+        // every instance re-reads the component tables: bound the total work a small file can ask for
+        std::size_t nodes = 0;
+        for (const auto& [loader, sub] : components) {
+            nodes += countNodes(*sub);
+        }
+        if (nodes * instances.size() > Limits::kMaxLoadedNodes) {
+            e.fail(repeatOrScatterKey(e.table()),
+                   where + " makes " + std::to_string(instances.size()) + " copies of " + std::to_string(nodes) +
+                       " values; at most " + std::to_string(Limits::kMaxLoadedNodes) + " values may be loaded");
+        }
+
         for (const Placement& p : instances) {
             if (byName.count(p.name)) {
                 e.fail("name", "entity name '" + p.name + "' is used twice");
@@ -305,6 +332,12 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
 
 // ---- events
 
+std::uint64_t firstStepReaching(double at, double dt) {
+    const double s = at / dt;
+    const double nearest = std::round(s);
+    return static_cast<std::uint64_t>(std::abs(s - nearest) <= 1e-6 * std::max(1.0, s) ? nearest : std::ceil(s));
+}
+
 std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
                                  const SceneDef& scene, const World& world,
                                  const std::map<std::string, Entity>& byName) {
@@ -323,7 +356,6 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
     for (const toml::node& item : *list) {
         TableReader r(*item.as_table(), "[[event]]", ctx);
         EventDef ev;
-        ev.line = static_cast<int>(item.source().begin.line);
         const bool hasAt = r.has("at");
         const bool hasFrame = r.has("frame");
         if (hasAt == hasFrame) {
@@ -331,7 +363,7 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
         }
         if (hasAt) {
             const double at = r.number("at", 0.0, 0.0, 1e9);
-            ev.step = static_cast<std::uint64_t>(std::ceil(at / scene.dt - 1e-9));
+            ev.step = firstStepReaching(at, scene.dt);
         } else {
             ev.step = static_cast<std::uint64_t>(r.integer("frame", 0, 0, 1'000'000'000)) *
                       static_cast<std::uint64_t>(scene.substeps);
@@ -362,17 +394,20 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
         ev.amount = r.number("amount", 0.0, -kHuge, kHuge);
         r.finish();
 
-        // the action must be one that some component of this entity takes
+        // the action must be one that some component of this entity takes; the first that does is the one
         const EventAction* match = nullptr;
         std::vector<std::string> actionNames;
-        for (const EventAction& a : catalog.actions()) {
+        for (std::size_t i = 0; i < catalog.actions().size(); ++i) {
+            const EventAction& a = catalog.actions()[i];
             if (std::find(actionNames.begin(), actionNames.end(), a.action) == actionNames.end()) {
                 actionNames.push_back(a.action);
             }
-            if (a.action == ev.action && a.appliesTo(world, found->second)) {
+            if (!match && a.action == ev.action && a.appliesTo(world, found->second)) {
                 match = &a;
+                ev.actionIndex = i;
             }
         }
+        ev.target = found->second;
         if (!match) {
             bool known = std::find(actionNames.begin(), actionNames.end(), ev.action) != actionNames.end();
             std::string names;
@@ -380,7 +415,14 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
                 names += (names.empty() ? "" : ", ") + s;
             }
             if (known) {
-                r.fail("action", "action '" + ev.action + "' does not apply to entity '" + ev.entity + "'");
+                std::string takers;
+                for (const EventAction& a : catalog.actions()) {
+                    if (a.action == ev.action) {
+                        takers += (takers.empty() ? "" : " or ") + a.needs;
+                    }
+                }
+                r.fail("action", "action '" + ev.action + "' does not apply to entity '" + ev.entity +
+                                     "'; it applies to " + takers);
             }
             const std::string near = nearestName(ev.action, actionNames);
             r.fail("action", "unknown action '" + ev.action + "'" +
@@ -425,9 +467,15 @@ std::string readScenarioFile(const std::string& path) {
     if (!in) {
         throw ScenarioError(path, 0, 0, "cannot open the scenario for reading");
     }
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    // read at most one byte past the limit: the file may have grown since stat
+    std::string text(Limits::kMaxFileBytes + 1, '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<std::size_t>(in.gcount()));
+    if (text.size() > Limits::kMaxFileBytes) {
+        throw ScenarioError(path, 0, 0, "the scenario is larger than " +
+                                            std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
+    }
+    return text;
 }
 
 Scenario loadScenario(const Catalog& catalog, const std::string& path, std::string text,

@@ -1,6 +1,8 @@
 #pragma once
 // The scene-wide settings of a scenario ([scene], [budget], [camera], [render]) and the scripted events.
 
+#include "engine/entity.h"
+
 #include <array>
 #include <cstdint>
 #include <string>
@@ -28,16 +30,19 @@ struct SceneDef {
     double frameSeconds() const { return dt * substeps; }
 };
 
-/// One scripted input: an action on a named entity at a fixed step.
+/// One scripted input: an action on a named entity at a fixed step. An event at time t applies at the start
+/// of the first step whose time reaches t (a step within a millionth of t counts as reaching it, so a dt
+/// written with few digits still lands `at = 2.0` on the step at 2 s).
 struct EventDef {
     std::uint64_t step = 0;            ///< the fixed step at whose start it applies
     std::string entity;
     std::string action;
+    Entity target;                     ///< the entity, resolved when the scenario loads
+    std::size_t actionIndex = 0;       ///< which of the catalog's actions applies, resolved at load
     std::vector<double> value;         ///< the `value` key: one number or an array of numbers
     std::array<double, 3> position{};  ///< the `position` key (disturb)
     double radius = 0.0;               ///< the `radius` key (disturb), m
     double amount = 0.0;               ///< the `amount` key (disturb), m
-    int line = 0;                      ///< where it was written, for messages
 };
 
 } // namespace tumble

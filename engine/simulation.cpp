@@ -1,6 +1,5 @@
 #include "engine/simulation.h"
 
-#include "components/name.h"
 #include "engine/dump.h"
 #include "engine/json.h"
 
@@ -11,26 +10,13 @@ namespace tumble {
 namespace {
 
 /// Applies the events due at this step, in file order.
-void applyEvents(World& world, const Catalog& catalog, const StepContext& ctx) {
+void applyEvents(World& world, const StepContext& ctx, const Catalog& catalog) {
     EventQueue& queue = world.resource<EventQueue>();
     while (queue.next < queue.events.size() && queue.events[queue.next].step <= ctx.step) {
         const EventDef& ev = queue.events[queue.next++];
-        if (ev.step < ctx.step) {
-            continue; // due before the run started (cannot happen from step 0; kept for resumed runs)
-        }
-        // the loader checked the entity and the action; the entity may have been destroyed since
-        for (Entity e : world.entities()) {
-            const Name* name = world.tryGet<Name>(e);
-            if (!name || name->value != ev.entity) {
-                continue;
-            }
-            for (const EventAction& a : catalog.actions()) {
-                if (a.action == ev.action && a.appliesTo(world, e)) {
-                    a.apply(world, e, ev);
-                    break;
-                }
-            }
-            break;
+        // the loader resolved the entity and the action; the entity may have been destroyed since
+        if (world.alive(ev.target)) {
+            catalog.actions()[ev.actionIndex].apply(world, ev.target, ev);
         }
     }
 }
@@ -46,7 +32,7 @@ Simulation::Simulation(const Catalog& catalog, const std::string& path, std::str
     m_world.setResource<SceneDef>(m_scenario.scene);
     m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0});
     m_schedule.add(Phase::Input, "events",
-                   [&catalog](World& w, const StepContext& ctx) { applyEvents(w, catalog, ctx); });
+                   [&catalog](World& w, const StepContext& ctx) { applyEvents(w, ctx, catalog); });
     for (const SystemEntry& s : catalog.systems()) {
         m_schedule.add(s.phase, s.name, s.fn);
     }
@@ -98,8 +84,9 @@ std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, s
     w.key("substeps").value(scene.substeps);
     w.key("budget").beginObject().key("physics_ms").value(scene.physicsBudgetMs);
     w.key("frame_ms").value(roundMs(scene.frameSeconds() * 1000.0)).endObject();
+    const std::vector<SlotStats> stats = profiler.slotStats();
     auto slots = [&](bool phases) {
-        for (const SlotStats& s : profiler.slotStats()) {
+        for (const SlotStats& s : stats) {
             if (s.isPhase != phases) {
                 continue;
             }

@@ -69,7 +69,13 @@ void LoadContext::fail(const toml::source_region& at, const std::string& message
 std::string nearestName(std::string_view typo, const std::vector<std::string>& known) {
     std::string best;
     std::size_t bestDistance = 3;
+    if (typo.size() > 64) {
+        return best; // no name is that long: nothing to suggest, and no quadratic work on a huge string
+    }
     for (const std::string& k : known) {
+        if (k.size() > typo.size() + 2 || typo.size() > k.size() + 2) {
+            continue; // more than two edits apart by length alone
+        }
         const std::size_t d = editDistance(typo, k);
         if (d < bestDistance) {
             bestDistance = d;

@@ -51,6 +51,7 @@ struct Limits {
     static constexpr std::size_t kMaxArray = 1u << 20;         ///< elements of any one array
     static constexpr std::size_t kMaxString = 4096;            ///< characters of any one string
     static constexpr std::int64_t kMaxEntities = 100000;       ///< entities after repeat/scatter
+    static constexpr std::size_t kMaxLoadedNodes = 50u << 20;  ///< component values read, copies included
 };
 
 /// Typed reads of one table; see the header comment.

@@ -17,14 +17,15 @@ void Commands::destroy(Entity e) {
 }
 
 void Commands::flush() {
-    // changes may queue further changes; apply until the queue stays empty, in order
-    std::size_t next = 0;
-    while (next < m_queue.size()) {
-        auto change = std::move(m_queue[next]);
-        ++next;
-        change(m_world);
+    // changes may queue further changes: apply batch after batch, each in order. Taking the batch out of
+    // the queue first leaves the queue consistent even if a change throws.
+    while (!m_queue.empty()) {
+        std::vector<std::function<void(World&)>> batch;
+        batch.swap(m_queue);
+        for (auto& change : batch) {
+            change(m_world);
+        }
     }
-    m_queue.clear();
 }
 
 Entity World::create() {

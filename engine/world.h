@@ -45,6 +45,8 @@ inline std::uint32_t nextTypeId() {
 /// A small dense id per C++ type, used to index the world's tables.
 template <class T>
 std::uint32_t typeId() {
+    // `const T` would get an id, and so a table, of its own; const belongs in view type lists only
+    static_assert(!std::is_const_v<T> && !std::is_volatile_v<T>, "name the component type without const");
     static const std::uint32_t id = nextTypeId();
     return id;
 }
@@ -70,6 +72,7 @@ public:
     }
     std::size_t size() const override { return m_dense.size(); }
 
+    /// Adds the entity's component, constructed from args, or replaces the one it has.
     template <class... Args>
     T& emplace(Entity e, Args&&... args) {
         if (e.index >= m_sparse.size()) {
@@ -78,7 +81,7 @@ public:
         if (m_sparse[e.index] != kAbsent) {
             // replace the value in place: one component of a type per entity
             T& slot = m_values[m_sparse[e.index]];
-            slot = T{std::forward<Args>(args)...};
+            slot = T(std::forward<Args>(args)...);
             return slot;
         }
         m_sparse[e.index] = static_cast<std::uint32_t>(m_dense.size());
@@ -87,7 +90,7 @@ public:
         return m_values.back();
     }
 
-    // swap-remove keeps the dense arrays packed
+    /// Removes the entity's component, if any; the last value moves into its place (swap-remove).
     void erase(std::uint32_t index) override {
         if (!contains(index)) {
             return;
@@ -104,6 +107,7 @@ public:
         m_sparse[index] = kAbsent;
     }
 
+    /// The component of the entity in slot `index`; the caller has checked contains(index).
     T& at(std::uint32_t index) { return m_values[m_sparse[index]]; }
     const T& at(std::uint32_t index) const { return m_values[m_sparse[index]]; }
 
@@ -135,6 +139,7 @@ public:
     /// Queue any structural change.
     void push(std::function<void(World&)> change) { m_queue.push_back(std::move(change)); }
 
+    /// Changes queued and not yet applied.
     std::size_t pending() const { return m_queue.size(); }
     /// Apply everything queued, in order; changes queued by those changes are applied too.
     void flush();
@@ -171,12 +176,14 @@ public:
 
     // ---- components
 
+    /// Adds (or replaces) a component; throws on a stale handle or while a view iterates.
     template <class T, class... Args>
     T& emplace(Entity e, Args&&... args) {
         requireAlive(e, "emplace");
         requireUnlocked("emplace");
         return pool<T>().emplace(e, std::forward<Args>(args)...);
     }
+    /// Removes a component if present; throws on a stale handle or while a view iterates.
     template <class T>
     void remove(Entity e) {
         requireAlive(e, "remove");
@@ -185,6 +192,7 @@ public:
             p->erase(e.index);
         }
     }
+    /// True if the entity is alive and has the component.
     template <class T>
     bool has(Entity e) const {
         const auto* p = findPool<T>();
@@ -231,6 +239,7 @@ public:
         }
         return static_cast<Pool<T>&>(*m_pools[id]);
     }
+    /// The packed set of a component type, or nullptr if none was ever made.
     template <class T>
     const Pool<T>* findPool() const {
         const auto id = detail::typeId<T>();
@@ -248,6 +257,7 @@ public:
 
     // ---- resources
 
+    /// Sets (or replaces) the world's one resource of type T.
     template <class T, class... Args>
     T& setResource(Args&&... args) {
         const auto id = detail::typeId<T>();
@@ -259,6 +269,7 @@ public:
         m_resources[id] = std::move(holder);
         return ref;
     }
+    /// The resource of type T, or nullptr if it was never set.
     template <class T>
     T* tryResource() {
         const auto id = detail::typeId<T>();
@@ -276,6 +287,7 @@ public:
 
     // ---- deferred changes
 
+    /// The queue for structural changes made during a phase (see the header comment).
     Commands& commands() { return m_commands; }
 
     /// Held by a view while it iterates; structural changes are refused while any is held.

@@ -185,7 +185,7 @@ void integrateSprings(World& world, const StepContext& ctx) {
 }
 
 void registerSpringSystem(Catalog& catalog) {
-    catalog.addComponent({"springs", "a spring network: masses and links given explicitly", loadSprings});
+    catalog.addComponent({"springs", loadSprings});
     catalog.addState<SpringNetwork>("springs", dumpSprings, hashSprings);
 
     // impulse: a momentum change J shared by the free masses (each gets dv = J / their total mass)

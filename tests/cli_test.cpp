@@ -60,6 +60,9 @@ TEST(Cli, UsageErrorsExitTwo) {
     EXPECT_EQ(runTumble({"run", "pendulum", "--frames", "-3"}).exitCode, 2);
     EXPECT_EQ(runTumble({"run", "pendulum", "--frames", "ten"}).exitCode, 2);
     EXPECT_EQ(runTumble({"run", "pendulum", "--dump-every", "0"}).exitCode, 2);
+    const auto orphan = runTumble({"run", "pendulum", "--no-render", "--dump-every", "5"});
+    EXPECT_EQ(orphan.exitCode, 2) << "--dump-every without --dump does nothing, so it is refused";
+    EXPECT_NE(orphan.err.find("--dump"), std::string::npos) << orphan.err;
 }
 
 TEST(Cli, ListShowsEveryDemoWithItsDescription) {
@@ -79,7 +82,7 @@ TEST(Cli, CheckPrintsNothingOnSuccess) {
 TEST(Cli, RunWritesProfileTraceAndDumpPerContract) {
     const std::string profile = tempPath("p.json"), trace = tempPath("t.json"), dump = tempPath("d.jsonl");
     const auto r = runTumble({"run", "pendulum", "--no-render", "--frames", "30", "--profile", profile, "--trace",
-                              trace, "--dump", dump});
+                              trace, "--dump", dump, "--out", tempPath("contract")});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("wrote " + profile), std::string::npos) << "it says where its outputs are: " << r.err;
 
@@ -132,7 +135,7 @@ TEST(Cli, RunWritesProfileTraceAndDumpPerContract) {
 TEST(Cli, DumpEveryKFramesStartsWithTheInitialState) {
     const std::string dump = tempPath("every.jsonl");
     const auto r = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "25", "--dump", dump,
-                              "--dump-every", "10"});
+                              "--dump-every", "10", "--out", tempPath("every")});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto lines = jsonLines(readFile(dump));
     std::vector<int> frames;
@@ -146,16 +149,16 @@ TEST(Cli, DumpEveryKFramesStartsWithTheInitialState) {
 TEST(Cli, TwoRunsDumpTheSameBits) {
     const std::string a = tempPath("a.jsonl"), b = tempPath("b.jsonl");
     ASSERT_EQ(runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "120", "--dump", a,
-                         "--dump-every", "1"}).exitCode, 0);
+                         "--dump-every", "1", "--out", tempPath("run_a")}).exitCode, 0);
     ASSERT_EQ(runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "120", "--dump", b,
-                         "--dump-every", "1"}).exitCode, 0);
+                         "--dump-every", "1", "--out", tempPath("run_b")}).exitCode, 0);
     EXPECT_EQ(readFile(a), readFile(b));
 }
 
 TEST(Cli, OverridesReachTheRun) {
     const std::string dump = tempPath("o.jsonl");
     const auto r = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "2", "--dump", dump, "--set",
-                              "scene.substeps=1", "--set", "scene.dt=0.01"});
+                              "scene.substeps=1", "--set", "scene.dt=0.01", "--out", tempPath("overrides")});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_DOUBLE_EQ(jsonLines(readFile(dump))[0]["t"].get<double>(), 0.02);
 }
@@ -181,9 +184,13 @@ TEST(Cli, QuietIsQuietAndPipesGetNoProgressBar) {
 
 TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
     const std::string blocker = writeTemp("blocker", "a file, not a folder");
-    const auto r = runTumble({"run", "pendulum", "--no-render", "--dump", blocker + "/d.jsonl"});
-    EXPECT_EQ(r.exitCode, 1);
-    EXPECT_NE(r.err.find("cannot write " + blocker + "/d.jsonl"), std::string::npos) << r.err;
+    for (const char* option : {"--dump", "--trace", "--profile"}) {
+        const auto r = runTumble({"run", "pendulum", "--no-render", option, blocker + "/x.json", "--out",
+                                  tempPath("unwritable")});
+        EXPECT_EQ(r.exitCode, 1) << option;
+        EXPECT_NE(r.err.find("cannot write " + blocker + "/x.json"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find("frames,"), std::string::npos) << "it fails before running: " << r.err;
+    }
 }
 
 TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
@@ -197,7 +204,11 @@ TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
                 dump.c_str(), "--dump-every", "1000", "--profile", profile.c_str(), static_cast<char*>(nullptr));
         ::_exit(127);
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    // wait until it is running (the initial state is dumped before the first frame), then a little more
+    for (int i = 0; i < 2000 && readFile(dump).empty(); ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
     ::kill(pid, SIGTERM);
     int status = 0;
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 namespace tumble {
 namespace {
 
@@ -73,14 +75,30 @@ TEST(FixedLoop, CapDropsTimeBeyondIt) {
 }
 
 TEST(FixedLoop, IntegerAccumulatorNeverDrifts) {
-    // 60 steps of 1/60 s fed as 60 frames of 16'666'667 ns: an hour of frames gives an hour of steps
-    FixedLoop loop(kStep, 8);
-    std::int64_t steps = 0;
+    // 60 Hz frames driving a 144 Hz step for an hour: no period divides the other, yet every nanosecond fed
+    // in is either in a step taken or still in the accumulator
+    constexpr std::int64_t kStep144 = 6'944'444, kFrame60 = 16'666'667;
+    FixedLoop loop(kStep144, 8);
+    std::int64_t steps = 0, fed = 0;
     for (int i = 0; i < 60 * 60 * 60; ++i) {
-        steps += loop.advance(kStep).steps;
+        const Tick t = loop.advance(kFrame60);
+        fed += kFrame60;
+        steps += t.steps;
+        ASSERT_EQ(t.droppedNs, 0);
+        ASSERT_TRUE(t.steps == 2 || t.steps == 3) << "2.4 steps a frame on average";
     }
-    EXPECT_EQ(steps, 60 * 60 * 60);
-    EXPECT_EQ(loop.accumulatorNs(), 0);
+    EXPECT_EQ(steps * kStep144 + loop.accumulatorNs(), fed);
+    EXPECT_EQ(steps, fed / kStep144);
+}
+
+TEST(FixedLoop, AHugeClockJumpNeitherOverflowsNorSpirals) {
+    FixedLoop loop(kStep, 4);
+    const Tick t = loop.advance(std::numeric_limits<std::int64_t>::max() - 5);
+    EXPECT_EQ(t.steps, 4);
+    EXPECT_GT(t.droppedNs, 0);
+    EXPECT_GE(t.alpha, 0.0);
+    EXPECT_LT(t.alpha, 1.0);
+    EXPECT_EQ(loop.advance(kStep).steps, 1);
 }
 
 TEST(FixedLoop, NegativeElapsedIsIgnored) {

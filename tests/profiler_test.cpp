@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <sstream>
+
 namespace tumble {
 namespace {
 
@@ -87,7 +89,9 @@ TEST(Profiler, TraceIsValidTraceEventJsonWithAnEventPerScopeAndFrame) {
         p.record(fixed, 8, 9);
         p.endFrame();
     }
-    const auto j = nlohmann::json::parse(p.traceJson());
+    std::ostringstream trace;
+    p.writeTrace(trace);
+    const auto j = nlohmann::json::parse(trace.str());
     ASSERT_TRUE(j.contains("traceEvents"));
     int springs = 0, frames = 0;
     for (const auto& e : j["traceEvents"]) {
@@ -103,6 +107,18 @@ TEST(Profiler, TraceIsValidTraceEventJsonWithAnEventPerScopeAndFrame) {
     }
     EXPECT_EQ(springs, 3);
     EXPECT_EQ(frames, 3);
+}
+
+TEST(Profiler, TraceStopsAtItsLimitAndSaysSo) {
+    Profiler p(16);
+    p.enableTrace(true);
+    const int s = p.addSlot("x", Phase::Fixed, false);
+    for (std::size_t i = 0; i < Profiler::kMaxTraceEvents + 10; ++i) {
+        p.record(s, std::int64_t(i), 1);
+    }
+    EXPECT_EQ(p.traceEventCount(), Profiler::kMaxTraceEvents);
+    EXPECT_TRUE(p.traceTruncated());
+    EXPECT_EQ(p.slotStats().at(0).calls, Profiler::kMaxTraceEvents + 10) << "statistics go on past the limit";
 }
 
 TEST(Profiler, NoTraceEventsUnlessEnabled) {

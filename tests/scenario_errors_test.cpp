@@ -26,6 +26,15 @@ const std::string kScene = "[scene]\nname = \"t\"\n";
 const std::string kBob = "[[entity]]\nname = \"bob\"\n[entity.springs]\n"
                          "masses = [ { x = [0, 0, 0], pinned = true }, { x = [1, 0, 0] } ]\nlinks = [ { a = 0, b = 1 } ]\n";
 
+/// n copies of an item, comma-separated.
+std::string repeated(const std::string& item, int n) {
+    std::string out;
+    for (int i = 0; i < n; ++i) {
+        out += (i ? ", " : "") + item;
+    }
+    return out;
+}
+
 std::vector<BadCase> cases() {
     return {
         {"syntax_unterminated_string", kScene + "description = \"oops\n", {}, 3, "TOML syntax error"},
@@ -94,6 +103,16 @@ std::vector<BadCase> cases() {
          kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"pin\"\nvalue = [7]\n", {}, 12,
          "mass index 7"},
         {"joint_not_available", kScene + "[[joint]]\ntype = \"hinge\"\n", {}, 3, "[[joint]] connects rigid bodies"},
+        {"set_into_a_value", kScene, {"--set", "scene.name.x=1"}, 0, "--set scene.name.x=1: 'name' is not a table"},
+        {"string_too_long", kScene + "description = \"" + std::string(5000, 'a') + "\"\n", {}, 3,
+         "'description' in [scene] is longer than 4096 characters"},
+        {"event_value_too_long",
+         kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"pin\"\nvalue = [" + repeated("0", 4097) + "]\n",
+         {}, 12, "'value' in [[event]] has 4097 elements; at most 4096 are allowed"},
+        {"repeat_too_much_work",
+         kScene + "[[entity]]\nname = \"big\"\nrepeat = { count = 40000 }\n[entity.springs]\nmasses = [" +
+             repeated("{ x = [0, 0, 0] }", 300) + "]\n",
+         {}, 5, "makes 40000 copies of"},
         {"set_unknown_target", kScene, {"--set", "nobody.springs.k=1"}, 0,
          "--set nobody.springs.k=1: no section or entity named 'nobody'"},
         {"set_out_of_range", kScene, {"--set", "scene.dt=-1"}, 0, "--set scene.dt=-1: 'dt' in [scene] is -1, outside"},

@@ -160,5 +160,17 @@ value = [0, 0, 0]
     EXPECT_EQ(ev[1].action, "impulse");
 }
 
+TEST(Scenario, EventTimesBetweenStepsApplyAtTheNextStep) {
+    auto at = [&](const std::string& t, const std::string& dt) {
+        return simulate(kPendulum + "[[event]]\nat = " + t + "\nentity = \"bob\"\naction = \"impulse\"\n"
+                                    "value = [0, 0, 1]\n", {"scene.dt=" + dt})->scenario().events.at(0).step;
+    };
+    EXPECT_EQ(at("0.015", "0.01"), 2u) << "the first step whose time reaches 0.015 s starts at 0.02 s";
+    EXPECT_EQ(at("0.02", "0.01"), 2u);
+    EXPECT_EQ(at("0.0", "0.01"), 0u);
+    EXPECT_EQ(at("2.0", "0.004166666"), 480u) << "a dt written with few digits still lands on 2 s";
+    EXPECT_EQ(at("2.0", "0.0166666667"), 120u);
+}
+
 } // namespace
 } // namespace tumble

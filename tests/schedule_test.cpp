@@ -42,6 +42,30 @@ TEST(Schedule, QueuedChangesApplyAtTheEndOfThePhase) {
     EXPECT_TRUE(w.has<Marker>(e));
 }
 
+TEST(Schedule, DestroyRequestedDuringIterationAppliesAtTheEndOfThePhase) {
+    Profiler prof;
+    Schedule s(prof);
+    World w;
+    std::vector<Entity> es;
+    for (int i = 0; i < 4; ++i) {
+        es.push_back(w.create());
+        w.emplace<Marker>(es.back());
+    }
+    std::size_t seenByLaterSystem = 0;
+    s.add(Phase::Fixed, "reaper", [](World& world, const StepContext&) {
+        world.view<Marker>().each([&world](Entity e, Marker&) { world.commands().destroy(e); });
+    });
+    s.add(Phase::Fixed, "counter", [&](World& world, const StepContext&) {
+        seenByLaterSystem = world.view<Marker>().count();
+    });
+    s.run(Phase::Fixed, w, StepContext{});
+    EXPECT_EQ(seenByLaterSystem, 4u) << "later systems of the phase still see the entities";
+    EXPECT_EQ(w.size(), 0u) << "and they are gone when the phase ends";
+    for (Entity e : es) {
+        EXPECT_FALSE(w.alive(e));
+    }
+}
+
 TEST(Schedule, EverySystemAndPhaseIsTimed) {
     Profiler prof;
     Schedule s(prof);
