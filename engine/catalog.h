@@ -38,6 +38,7 @@ struct StateCodec {
 struct EventAction {
     std::string action;  ///< e.g. "impulse"
     std::string needs;   ///< what the entity must be, for messages, e.g. "a spring network"
+    std::vector<std::string> fields; ///< event keys it reads (of value, position, radius, amount); others are errors
     std::function<bool(const World&, Entity)> appliesTo;   ///< true if the entity takes this action
     /// Load-time check of the event's fields; returns a message when they do not fit.
     std::function<std::optional<std::string>(const World&, Entity, const EventDef&)> check;

@@ -295,6 +295,16 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
     run->add_flag("--quiet", o.quiet, "No progress bar and no summary");
     run->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
 
+    // an unknown verb is named, rather than CLI11's "a subcommand is required"
+    if (argc >= 2 && argv[1][0] != '-') {
+        const std::string verb = argv[1];
+        const auto verbs = app.get_subcommands([](CLI::App*) { return true; });
+        if (std::none_of(verbs.begin(), verbs.end(), [&](CLI::App* v) { return v->get_name() == verb; })) {
+            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check and run\n"
+                      << "Run `tumble --help` for usage.\n";
+            return kExitBadInput;
+        }
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -37,6 +37,21 @@ bool isSection(std::string_view s) {
 
 // ---- overrides
 
+/// A word that --set takes as a string without quotes: letters, digits, '_', '-', '.', and not a number.
+bool isBareWord(std::string_view s) {
+    if (s.empty()) {
+        return true; // KEY= sets the empty string
+    }
+    const char c0 = s.front();
+    if (!((c0 >= 'a' && c0 <= 'z') || (c0 >= 'A' && c0 <= 'Z') || c0 == '_')) {
+        return false;
+    }
+    return std::all_of(s.begin(), s.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+               c == '-' || c == '.';
+    });
+}
+
 toml::table* findEntityTable(toml::table& root, std::string_view name) {
     toml::array* entities = root["entity"].as_array();
     if (!entities) {
@@ -52,7 +67,8 @@ toml::table* findEntityTable(toml::table& root, std::string_view name) {
 }
 
 void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx) {
-    const std::string origin = "--set " + spec;
+    // messages quote the override, shortened: a long value need not be echoed whole
+    const std::string origin = "--set " + (spec.size() > 100 ? spec.substr(0, 100) + "..." : spec);
     const auto eq = spec.find('=');
     if (eq == std::string::npos || eq == 0) {
         throw ScenarioError(ctx.file, 0, 0, origin + ": expected KEY=VALUE, e.g. scene.dt=0.005");
@@ -75,6 +91,7 @@ void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx)
     if (isSection(path[0])) {
         if (!root.contains(path[0])) {
             root.insert(path[0], toml::table{});
+            ctx.overrideOf[root.get(path[0])] = origin;
         }
         table = root[path[0]].as_table();
         if (!table) {
@@ -90,7 +107,9 @@ void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx)
     }
     for (std::size_t i = 1; i + 1 < path.size(); ++i) {
         if (!table->contains(path[i])) {
+            // a table made by the override: problems found in it are the override's
             table->insert(path[i], toml::table{});
+            ctx.overrideOf[table->get(path[i])] = origin;
         }
         toml::table* next = table->get_as<toml::table>(path[i]);
         if (!next) {
@@ -99,19 +118,25 @@ void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx)
         table = next;
     }
 
-    // the value: TOML if it parses as one, else the text as a string
-    toml::table parsed;
-    bool isToml = true;
-    try {
-        parsed = toml::parse("v = " + text, origin);
-    } catch (const toml::parse_error&) {
-        isToml = false;
-    }
+    // the value: one TOML value, or a bare word taken as a string (integrator=rk4); anything else is an error
     const std::string& last = path.back();
-    if (isToml && parsed.contains("v")) {
+    toml::table parsed;
+    bool isToml = text.find('\n') == std::string::npos && text.find('\r') == std::string::npos;
+    if (isToml) {
+        try {
+            parsed = toml::parse("v = " + text, origin);
+        } catch (const toml::parse_error&) {
+            isToml = false;
+        }
+    }
+    if (isToml && parsed.size() == 1 && parsed.contains("v")) {
         parsed.get("v")->visit([&](auto&& n) { table->insert_or_assign(last, std::move(n)); });
-    } else {
+    } else if (isBareWord(text)) {
         table->insert_or_assign(last, text);
+    } else {
+        throw ScenarioError(ctx.file, 0, 0,
+                            origin + ": the value is not one TOML value (a number, true/false, [array], "
+                                     "\"string\") nor a bare word");
     }
     ctx.overrideOf[table->get(last)] = origin;
 }
@@ -428,6 +453,17 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
             r.fail("action", "unknown action '" + ev.action + "'" +
                                  (near.empty() ? "; actions in this build: " + names
                                                : " (did you mean '" + near + "'?)"));
+        }
+        for (const char* key : {"value", "position", "radius", "amount"}) {
+            if (r.table().contains(key) &&
+                std::find(match->fields.begin(), match->fields.end(), key) == match->fields.end()) {
+                std::string takes;
+                for (const std::string& f : match->fields) {
+                    takes += (takes.empty() ? "" : ", ") + f;
+                }
+                r.fail(key, "action '" + ev.action + "' does not use '" + key + "'" +
+                                (takes.empty() ? "" : "; it takes: " + takes));
+            }
         }
         if (auto problem = match->check(world, found->second, ev)) {
             r.fail("value", "action '" + ev.action + "': " + *problem);

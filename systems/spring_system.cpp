@@ -189,7 +189,7 @@ void registerSpringSystem(Catalog& catalog) {
     catalog.addState<SpringNetwork>("springs", dumpSprings, hashSprings);
 
     // impulse: a momentum change J shared by the free masses (each gets dv = J / their total mass)
-    catalog.addEventAction({"impulse", "a spring network", hasSprings, needsVector,
+    catalog.addEventAction({"impulse", "a spring network", {"value"}, hasSprings, needsVector,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 double total = 0.0;
@@ -206,7 +206,7 @@ void registerSpringSystem(Catalog& catalog) {
                                     }
                                 }
                             }});
-    catalog.addEventAction({"set_velocity", "a spring network", hasSprings, needsVector,
+    catalog.addEventAction({"set_velocity", "a spring network", {"value"}, hasSprings, needsVector,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 for (std::size_t i = 0; i < net.v.size(); ++i) {
@@ -215,7 +215,7 @@ void registerSpringSystem(Catalog& catalog) {
                                     }
                                 }
                             }});
-    catalog.addEventAction({"pin", "a spring network", hasSprings, needsIndices,
+    catalog.addEventAction({"pin", "a spring network", {"value"}, hasSprings, needsIndices,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 for (double d : ev.value) {
@@ -224,7 +224,7 @@ void registerSpringSystem(Catalog& catalog) {
                                     net.v[i] = {};
                                 }
                             }});
-    catalog.addEventAction({"unpin", "a spring network", hasSprings, needsIndices,
+    catalog.addEventAction({"unpin", "a spring network", {"value"}, hasSprings, needsIndices,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 for (double d : ev.value) {

@@ -52,7 +52,9 @@ TEST(Cli, HelpForEveryVerb) {
 
 TEST(Cli, UsageErrorsExitTwo) {
     EXPECT_EQ(runTumble({}).exitCode, 2);
-    EXPECT_EQ(runTumble({"fly"}).exitCode, 2);
+    const auto fly = runTumble({"fly"});
+    EXPECT_EQ(fly.exitCode, 2);
+    EXPECT_NE(fly.err.find("unknown verb 'fly'"), std::string::npos) << fly.err;
     EXPECT_EQ(runTumble({"run"}).exitCode, 2) << "the scenario is required";
     const auto r = runTumble({"run", "pendulum", "--frams", "3"});
     EXPECT_EQ(r.exitCode, 2);

@@ -113,6 +113,17 @@ std::vector<BadCase> cases() {
          kScene + "[[entity]]\nname = \"big\"\nrepeat = { count = 40000 }\n[entity.springs]\nmasses = [" +
              repeated("{ x = [0, 0, 0] }", 300) + "]\n",
          {}, 5, "makes 40000 copies of"},
+        {"set_trailing_text", kScene, {"--set", "scene.dt=0.01\nbogus = 1"}, 0, "is not one TOML value"},
+        {"set_number_out_of_range", kScene, {"--set", "scene.dt=1e999"}, 0,
+         "--set scene.dt=1e999: the value is not one TOML value"},
+        {"set_creates_planned_component", kScene + kBob, {"--set", "bob.cloth.rows=3"}, 0,
+         "--set bob.cloth.rows=3: entity 'bob': the 'cloth' component is part of the scenario format"},
+        {"set_creates_table_for_array", kScene, {"--set", "scene.gravity.x=1"}, 0,
+         "--set scene.gravity.x=1: 'gravity' in [scene] must be an array of 3 numbers, not a table"},
+        {"event_key_the_action_does_not_use",
+         kScene + kBob + "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"impulse\"\nvalue = [0, 1, 0]\n"
+                         "radius = 5.0\n",
+         {}, 13, "action 'impulse' does not use 'radius'; it takes: value"},
         {"set_unknown_target", kScene, {"--set", "nobody.springs.k=1"}, 0,
          "--set nobody.springs.k=1: no section or entity named 'nobody'"},
         {"set_out_of_range", kScene, {"--set", "scene.dt=-1"}, 0, "--set scene.dt=-1: 'dt' in [scene] is -1, outside"},
