@@ -23,14 +23,14 @@ struct SpringLink {
 
 /// The state of a spring network (all arrays have one entry per mass).
 struct SpringNetwork {
-    std::vector<Vec3> x;                ///< m, world positions
-    std::vector<Vec3> v;                ///< m/s
-    std::vector<double> invMass;        ///< 1/kg (a pinned mass keeps its mass for when it is unpinned)
-    std::vector<std::uint8_t> pinned;   ///< 1 if the mass is held in place
+    std::vector<Vec3> x;              ///< m, world positions
+    std::vector<Vec3> v;              ///< m/s
+    std::vector<double> invMass;      ///< 1/kg (a pinned mass keeps its mass for when it is unpinned)
+    std::vector<std::uint8_t> pinned; ///< 1 if the mass is held in place
     std::vector<SpringLink> links;
-    double drag = 0.0;                  ///< N s/m, global -drag * v on every mass
+    double drag = 0.0; ///< N s/m, global -drag * v on every mass
     Integrator integrator = Integrator::SymplecticEuler;
-    std::vector<Vec3> force;            ///< N, scratch for the step (not state)
+    std::vector<Vec3> force; ///< N, scratch for the step (not state)
 };
 
 } // namespace tumble

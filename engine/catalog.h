@@ -20,13 +20,13 @@ namespace tumble {
 
 /// Reads `[entity.KEY]` and puts the resulting components on the entity.
 struct ComponentLoader {
-    std::string key;     ///< the scenario key, e.g. "springs"
+    std::string key; ///< the scenario key, e.g. "springs"
     std::function<void(TableReader& reader, World& world, Entity entity, const SceneDef& scene)> load;
 };
 
 /// How one component type appears in dumps and in the state hash.
 struct StateCodec {
-    std::string kind;    ///< the dump's "kind" field
+    std::string kind; ///< the dump's "kind" field
     std::function<bool(const World&, Entity)> has;
     /// Writes the entity's fields (after "kind") into an open JSON object.
     std::function<void(const World&, Entity, JsonWriter&)> dump;
@@ -36,10 +36,11 @@ struct StateCodec {
 
 /// An event action on entities that have some component.
 struct EventAction {
-    std::string action;  ///< e.g. "impulse"
-    std::string needs;   ///< what the entity must be, for messages, e.g. "a spring network"
-    std::vector<std::string> fields; ///< event keys it reads (of value, position, radius, amount); others are errors
-    std::function<bool(const World&, Entity)> appliesTo;   ///< true if the entity takes this action
+    std::string action; ///< e.g. "impulse"
+    std::string needs;  ///< what the entity must be, for messages, e.g. "a spring network"
+    std::vector<std::string>
+        fields; ///< event keys it reads (of value, position, radius, amount); others are errors
+    std::function<bool(const World&, Entity)> appliesTo; ///< true if the entity takes this action
     /// Load-time check of the event's fields; returns a message when they do not fit.
     std::function<std::optional<std::string>(const World&, Entity, const EventDef&)> check;
     std::function<void(World&, Entity, const EventDef&)> apply; ///< run at the start of the event's step
@@ -66,10 +67,9 @@ public:
     template <class T>
     void addState(std::string kind, std::function<void(const T&, JsonWriter&)> dump,
                   std::function<void(const T&, Hasher&)> hash) {
-        addState(StateCodec{
-            std::move(kind), [](const World& w, Entity e) { return w.has<T>(e); },
-            [dump](const World& w, Entity e, JsonWriter& out) { dump(w.get<T>(e), out); },
-            [hash](const World& w, Entity e, Hasher& h) { hash(w.get<T>(e), h); }});
+        addState(StateCodec{std::move(kind), [](const World& w, Entity e) { return w.has<T>(e); },
+                            [dump](const World& w, Entity e, JsonWriter& out) { dump(w.get<T>(e), out); },
+                            [hash](const World& w, Entity e, Hasher& h) { hash(w.get<T>(e), h); }});
     }
 
     const ComponentLoader* findComponent(std::string_view key) const;

@@ -149,7 +149,8 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     sigemptyset(&stop.sa_mask);
     ::sigaction(SIGINT, &stop, nullptr);
     ::sigaction(SIGTERM, &stop, nullptr);
-    ProgressBar bar(frames, scene.frameSeconds(), !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
+    ProgressBar bar(frames, scene.frameSeconds(),
+                    !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
     std::string pending;
     auto dumpNow = [&] {
         if (dump) {
@@ -194,18 +195,21 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         trace->close();
         wrote.push_back(trace->path());
         if (sim.profiler().traceTruncated()) {
-            std::fprintf(stderr, "tumble: warning: the trace keeps only its first %zu events; trace fewer frames "
-                                 "to see them all\n", Profiler::kMaxTraceEvents);
+            std::fprintf(stderr,
+                         "tumble: warning: the trace keeps only its first %zu events; trace fewer frames "
+                         "to see them all\n",
+                         Profiler::kMaxTraceEvents);
         }
     }
     const FrameStats f = sim.profiler().frameStats();
     if (!o.quiet) {
-        std::fprintf(stderr,
-                     "%s: %llu frames, %.3f s simulated; physics per frame p50 %.3f ms, p99 %.3f ms, max %.3f ms "
-                     "(budget %.3g ms, %llu frames over)\n",
-                     scene.name.c_str(), static_cast<unsigned long long>(sim.frame()), sim.time(), f.physicsP50Ms,
-                     f.physicsP99Ms, f.physicsMaxMs, scene.physicsBudgetMs,
-                     static_cast<unsigned long long>(f.overBudgetFrames));
+        std::fprintf(
+            stderr,
+            "%s: %llu frames, %.3f s simulated; physics per frame p50 %.3f ms, p99 %.3f ms, max %.3f ms "
+            "(budget %.3g ms, %llu frames over)\n",
+            scene.name.c_str(), static_cast<unsigned long long>(sim.frame()), sim.time(), f.physicsP50Ms,
+            f.physicsP99Ms, f.physicsMaxMs, scene.physicsBudgetMs,
+            static_cast<unsigned long long>(f.overBudgetFrames));
         for (const std::string& w : wrote) {
             std::fprintf(stderr, "wrote %s\n", w.c_str());
         }
@@ -248,8 +252,8 @@ std::string resolveScenario(const std::string& nameOrPath) {
     if (fs::is_regular_file(nameOrPath, ec)) {
         return nameOrPath;
     }
-    const bool looksLikePath = nameOrPath.find('/') != std::string::npos ||
-                               fs::path(nameOrPath).extension() == ".toml";
+    const bool looksLikePath =
+        nameOrPath.find('/') != std::string::npos || fs::path(nameOrPath).extension() == ".toml";
     if (!looksLikePath) {
         const std::string demo = demoDirectory() + "/" + nameOrPath + ".toml";
         if (fs::is_regular_file(demo, ec)) {
@@ -260,7 +264,8 @@ std::string resolveScenario(const std::string& nameOrPath) {
         return nameOrPath; // not a regular file: reading it says so
     }
     if (!looksLikePath) {
-        throw ScenarioError(nameOrPath, 0, 0, "no scenario file or demo by that name (`tumble list` shows the demos)");
+        throw ScenarioError(nameOrPath, 0, 0,
+                            "no scenario file or demo by that name (`tumble list` shows the demos)");
     }
     throw ScenarioError(nameOrPath, 0, 0, "cannot open the scenario: no such file");
 }
@@ -274,19 +279,24 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
 
     RunOptions o;
     CLI::App* list = app.add_subcommand("list", "List the demos: name and what each shows");
-    CLI::App* check = app.add_subcommand("check", "Parse and validate a scenario; prints nothing when it is valid");
+    CLI::App* check =
+        app.add_subcommand("check", "Parse and validate a scenario; prints nothing when it is valid");
     addScenarioOptions(check, o);
-    CLI::App* run = app.add_subcommand("run", "Simulate a scenario headlessly and write the outputs asked for");
+    CLI::App* run =
+        app.add_subcommand("run", "Simulate a scenario headlessly and write the outputs asked for");
     addScenarioOptions(run, o);
     run->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
         ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
     run->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
     run->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
-    run->add_option("--profile", o.profile, "Write the budget summary as JSON to FILE (default <out>/profile.json)")->type_name("FILE");
+    run->add_option("--profile", o.profile,
+                    "Write the budget summary as JSON to FILE (default <out>/profile.json)")
+        ->type_name("FILE");
     run->add_option("--trace", o.trace, "Write a Chrome trace-event JSON of every system's timing to FILE")
         ->type_name("FILE");
     CLI::Option* dumpOption =
-        run->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")->type_name("FILE");
+        run->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")
+            ->type_name("FILE");
     run->add_option("--dump-every", o.dumpEvery,
                     "Dump every K frames, starting with the initial state (default: the last frame only)")
         ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))

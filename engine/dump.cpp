@@ -6,8 +6,8 @@
 
 namespace tumble {
 
-void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame, double t,
-                    std::uint64_t hash) {
+void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame,
+                    double t, std::uint64_t hash) {
     JsonWriter w(out);
     w.beginObject().key("frame").value(frame).key("t").value(t).key("hash").value(hashHex(hash));
     w.key("entities").beginObject();

@@ -12,8 +12,8 @@
 namespace tumble {
 
 /// Appends one dump line (with its newline): {"frame", "t", "hash", "entities": {name: {"kind", ...}}}.
-void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame, double t,
-                    std::uint64_t hash);
+void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame,
+                    double t, std::uint64_t hash);
 
 /// 64-bit hash of every simulated byte in the world (every codec's bytes, entity by entity).
 std::uint64_t stateHash(const World& world, const Catalog& catalog);

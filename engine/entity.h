@@ -10,8 +10,8 @@ namespace tumble {
 
 /// Handle to an entity of a World: slot index plus the slot's generation when the entity was created.
 struct Entity {
-    std::uint32_t index = kInvalidIndex;      ///< slot in the world's entity table
-    std::uint32_t generation = 0;             ///< must match the slot's current generation to be alive
+    std::uint32_t index = kInvalidIndex; ///< slot in the world's entity table
+    std::uint32_t generation = 0;        ///< must match the slot's current generation to be alive
 
     static constexpr std::uint32_t kInvalidIndex = 0xffffffffu;
 

@@ -17,7 +17,8 @@ std::int64_t secondsToNs(double seconds) {
     return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::llround(seconds * 1e9)));
 }
 
-FixedLoop::FixedLoop(std::int64_t stepNs, int maxStepsPerFrame) : m_stepNs(stepNs), m_maxSteps(maxStepsPerFrame) {
+FixedLoop::FixedLoop(std::int64_t stepNs, int maxStepsPerFrame)
+    : m_stepNs(stepNs), m_maxSteps(maxStepsPerFrame) {
     if (stepNs <= 0 || maxStepsPerFrame <= 0) {
         throw std::invalid_argument("fixed loop: the step and the cap must be positive");
     }

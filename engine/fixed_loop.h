@@ -30,9 +30,9 @@ std::int64_t secondsToNs(double seconds);
 
 /// How far one frame advances: see the header comment.
 struct Tick {
-    int steps = 0;               ///< fixed steps to run now
-    std::int64_t droppedNs = 0;  ///< time thrown away by the cap this frame
-    double alpha = 0.0;          ///< leftover / step, in [0, 1)
+    int steps = 0;              ///< fixed steps to run now
+    std::int64_t droppedNs = 0; ///< time thrown away by the cap this frame
+    double alpha = 0.0;         ///< leftover / step, in [0, 1)
 };
 
 /// Integer-nanosecond accumulator with a cap on steps per frame.

@@ -12,9 +12,12 @@ enum class Phase : std::uint8_t { Input, Fixed, Frame };
 
 constexpr std::string_view phaseName(Phase p) {
     switch (p) {
-    case Phase::Input: return "input";
-    case Phase::Fixed: return "fixed";
-    case Phase::Frame: return "frame";
+    case Phase::Input:
+        return "input";
+    case Phase::Fixed:
+        return "fixed";
+    case Phase::Frame:
+        return "frame";
     }
     return "?";
 }

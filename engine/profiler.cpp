@@ -124,9 +124,25 @@ void Profiler::writeTrace(std::ostream& out) const {
     JsonWriter w(buf);
     w.beginObject().key("displayTimeUnit").value("ms").key("traceEvents").beginArray();
     // name the one process and thread so Perfetto labels the track
-    w.beginObject().key("name").value("process_name").key("ph").value("M").key("pid").value(1).key("tid").value(1);
+    w.beginObject()
+        .key("name")
+        .value("process_name")
+        .key("ph")
+        .value("M")
+        .key("pid")
+        .value(1)
+        .key("tid")
+        .value(1);
     w.key("args").beginObject().key("name").value("tumble").endObject().endObject();
-    w.beginObject().key("name").value("thread_name").key("ph").value("M").key("pid").value(1).key("tid").value(1);
+    w.beginObject()
+        .key("name")
+        .value("thread_name")
+        .key("ph")
+        .value("M")
+        .key("pid")
+        .value(1)
+        .key("tid")
+        .value(1);
     w.key("args").beginObject().key("name").value("simulation").endObject().endObject();
     for (const TraceEvent& e : m_events) {
         w.beginObject();

@@ -23,12 +23,12 @@ namespace tumble {
 struct SlotStats {
     std::string name;
     Phase phase = Phase::Fixed;
-    bool isPhase = false;     ///< true for a whole-phase timer, false for a system
+    bool isPhase = false; ///< true for a whole-phase timer, false for a system
     std::uint64_t calls = 0;
-    double meanMs = 0.0;      ///< over every call of the run
-    double p50Ms = 0.0;       ///< over the calls still in the ring buffer
+    double meanMs = 0.0; ///< over every call of the run
+    double p50Ms = 0.0;  ///< over the calls still in the ring buffer
     double p99Ms = 0.0;
-    double maxMs = 0.0;       ///< over every call of the run
+    double maxMs = 0.0; ///< over every call of the run
 };
 
 /// Per-frame statistics, in milliseconds.
@@ -100,7 +100,7 @@ private:
         Ring recent;
     };
     struct TraceEvent {
-        int slot;               ///< -1 for a whole frame
+        int slot; ///< -1 for a whole frame
         std::uint64_t frame;
         std::int64_t startNs;
         std::int64_t durationNs;
@@ -133,7 +133,8 @@ private:
 /// Times the enclosing scope into a profiler slot.
 class ScopedTimer {
 public:
-    ScopedTimer(Profiler& profiler, int slot) : m_profiler(profiler), m_slot(slot), m_start(profiler.nowNs()) {}
+    ScopedTimer(Profiler& profiler, int slot)
+        : m_profiler(profiler), m_slot(slot), m_start(profiler.nowNs()) {}
     ~ScopedTimer() { m_profiler.record(m_slot, m_start, m_profiler.nowNs() - m_start); }
     ScopedTimer(const ScopedTimer&) = delete;
     ScopedTimer& operator=(const ScopedTimer&) = delete;
@@ -147,7 +148,7 @@ private:
 #define TUMBLE_CONCAT_INNER(a, b) a##b
 #define TUMBLE_CONCAT(a, b) TUMBLE_CONCAT_INNER(a, b)
 /// Times the rest of the enclosing scope into the given profiler slot.
-#define TUMBLE_PROFILE_SCOPE(profiler, slot) \
+#define TUMBLE_PROFILE_SCOPE(profiler, slot)                                                                 \
     ::tumble::ScopedTimer TUMBLE_CONCAT(tumbleScopedTimer, __LINE__)(profiler, slot)
 
 } // namespace tumble

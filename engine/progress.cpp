@@ -47,7 +47,8 @@ void ProgressBar::draw(std::uint64_t framesDone) {
     const double fraction = m_total ? std::min(1.0, double(framesDone) / double(m_total)) : 1.0;
     const int filled = static_cast<int>(fraction * kWidth);
     const double msPerFrame = framesDone ? 1000.0 * elapsed / double(framesDone) : 0.0;
-    const double eta = framesDone ? elapsed / double(framesDone) * double(m_total - std::min(m_total, framesDone)) : 0.0;
+    const double eta =
+        framesDone ? elapsed / double(framesDone) * double(m_total - std::min(m_total, framesDone)) : 0.0;
     std::string bar(std::size_t(filled), '#');
     bar.resize(kWidth, '.');
     std::fprintf(m_out, "\r[%s] frame %llu/%llu  t=%.2fs  %.2f ms/frame  ETA %.0fs   ", bar.c_str(),

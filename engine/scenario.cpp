@@ -16,18 +16,19 @@ namespace tumble {
 
 namespace {
 
-constexpr double kHuge = 1e9;    // bound on coordinates, m
+constexpr double kHuge = 1e9; // bound on coordinates, m
 constexpr std::string_view kSections[] = {"scene", "budget", "camera", "render"};
 // components of the scenario format (CONTRACT.md) that arrive with later work
-constexpr std::string_view kPlanned[] = {"cloth", "softbody", "emitter", "rigid_body", "rigid_body_2d",
-                                         "water", "force_field"};
+constexpr std::string_view kPlanned[] = {"cloth",         "softbody", "emitter",    "rigid_body",
+                                         "rigid_body_2d", "water",    "force_field"};
 
 bool validName(std::string_view s) {
     if (s.empty() || s.size() > 64) {
         return false;
     }
     return std::all_of(s.begin(), s.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+               c == '-';
     });
 }
 
@@ -80,7 +81,8 @@ void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx)
     for (std::string part; std::getline(ss, part, '.');) {
         path.push_back(part);
     }
-    if (path.size() < 2 || std::any_of(path.begin(), path.end(), [](const std::string& p) { return p.empty(); })) {
+    if (path.size() < 2 ||
+        std::any_of(path.begin(), path.end(), [](const std::string& p) { return p.empty(); })) {
         throw ScenarioError(ctx.file, 0, 0,
                             origin + ": KEY must be section.key (scene.dt) or entity.component.key "
                                      "(curtain.cloth.integrator)");
@@ -95,7 +97,8 @@ void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx)
         }
         table = root[path[0]].as_table();
         if (!table) {
-            throw ScenarioError(ctx.file, 0, 0, origin + ": [" + path[0] + "] is not a table in the scenario");
+            throw ScenarioError(ctx.file, 0, 0,
+                                origin + ": [" + path[0] + "] is not a table in the scenario");
         }
     } else {
         table = findEntityTable(root, path[0]);
@@ -154,14 +157,16 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
     TableReader s(*sceneNode->as_table(), "[scene]", ctx);
     scene.name = s.requiredString("name");
     if (!validName(scene.name)) {
-        s.fail("name", "'name' in [scene] must be 1-64 letters, digits, '_' or '-' (it names the output folder)");
+        s.fail("name",
+               "'name' in [scene] must be 1-64 letters, digits, '_' or '-' (it names the output folder)");
     }
     scene.description = s.string("description", "");
     scene.dt = s.number("dt", 1.0 / 60.0, 1e-6, 1.0);
     scene.substeps = static_cast<int>(s.integer("substeps", 1, 1, 1000));
     scene.frames = s.integer("frames", 600, 0, 100'000'000);
     scene.gravity = s.vector<3>("gravity", scene.gravity, -1e4, 1e4);
-    scene.seed = static_cast<std::uint64_t>(s.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
+    scene.seed =
+        static_cast<std::uint64_t>(s.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
     s.finish();
 
     auto section = [&](const char* key) -> const toml::table* {
@@ -236,8 +241,8 @@ std::vector<Placement> placements(TableReader& e, const std::string& name, Vec3 
         r.finish();
         for (std::int64_t i = 0; i < count; ++i) {
             const double k = static_cast<double>(i);
-            out.push_back({name + "_" + std::to_string(i),
-                           base + Vec3{offset[0] * k, offset[1] * k, offset[2] * k}});
+            out.push_back(
+                {name + "_" + std::to_string(i), base + Vec3{offset[0] * k, offset[1] * k, offset[2] * k}});
         }
     } else if (scatter) {
         TableReader r(*scatter, "entity '" + name + "' scatter", e.context());
@@ -262,8 +267,8 @@ std::vector<Placement> placements(TableReader& e, const std::string& name, Vec3 
     return out;
 }
 
-void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog& catalog, const SceneDef& scene,
-                  World& world, std::map<std::string, Entity>& byName) {
+void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
+                  const SceneDef& scene, World& world, std::map<std::string, Entity>& byName) {
     const toml::node* node = root.get("entity");
     if (!node) {
         return;
@@ -334,8 +339,9 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
         }
         if (nodes * instances.size() > Limits::kMaxLoadedNodes) {
             e.fail(repeatOrScatterKey(e.table()),
-                   where + " makes " + std::to_string(instances.size()) + " copies of " + std::to_string(nodes) +
-                       " values; at most " + std::to_string(Limits::kMaxLoadedNodes) + " values may be loaded");
+                   where + " makes " + std::to_string(instances.size()) + " copies of " +
+                       std::to_string(nodes) + " values; at most " + std::to_string(Limits::kMaxLoadedNodes) +
+                       " values may be loaded");
         }
 
         for (const Placement& p : instances) {
@@ -360,7 +366,8 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
 std::uint64_t firstStepReaching(double at, double dt) {
     const double s = at / dt;
     const double nearest = std::round(s);
-    return static_cast<std::uint64_t>(std::abs(s - nearest) <= 1e-6 * std::max(1.0, s) ? nearest : std::ceil(s));
+    return static_cast<std::uint64_t>(std::abs(s - nearest) <= 1e-6 * std::max(1.0, s) ? nearest
+                                                                                       : std::ceil(s));
 }
 
 std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
@@ -490,14 +497,16 @@ toml::table parseText(const std::string& path, const std::string& text) {
 std::string readScenarioFile(const std::string& path) {
     struct stat st {};
     if (::stat(path.c_str(), &st) != 0) {
-        throw ScenarioError(path, 0, 0, "cannot open the scenario: no such file (or a demo name: see `tumble list`)");
+        throw ScenarioError(path, 0, 0,
+                            "cannot open the scenario: no such file (or a demo name: see `tumble list`)");
     }
     if (!S_ISREG(st.st_mode)) {
         throw ScenarioError(path, 0, 0, "the scenario is not a regular file");
     }
     if (static_cast<std::uint64_t>(st.st_size) > Limits::kMaxFileBytes) {
-        throw ScenarioError(path, 0, 0, "the scenario is larger than " +
-                                            std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
+        throw ScenarioError(path, 0, 0,
+                            "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
+                                " MiB");
     }
     std::ifstream in(path, std::ios::binary);
     if (!in) {
@@ -508,8 +517,9 @@ std::string readScenarioFile(const std::string& path) {
     in.read(text.data(), static_cast<std::streamsize>(text.size()));
     text.resize(static_cast<std::size_t>(in.gcount()));
     if (text.size() > Limits::kMaxFileBytes) {
-        throw ScenarioError(path, 0, 0, "the scenario is larger than " +
-                                            std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
+        throw ScenarioError(path, 0, 0,
+                            "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
+                                " MiB");
     }
     return text;
 }
@@ -524,7 +534,9 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
     ctx.file = path;
 
     if (sc.text.size() > Limits::kMaxFileBytes) {
-        throw ScenarioError(path, 0, 0, "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
+        throw ScenarioError(path, 0, 0,
+                            "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
+                                " MiB");
     }
     toml::table root = parseText(path, sc.text);
     for (const std::string& o : overrides) {
@@ -537,7 +549,8 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
         if (isSection(key) || key == "entity" || key == "event" || key == "joint") {
             continue;
         }
-        const std::string near = nearestName(key, {"scene", "budget", "camera", "render", "entity", "event", "joint"});
+        const std::string near =
+            nearestName(key, {"scene", "budget", "camera", "render", "entity", "event", "joint"});
         ctx.fail(&v, "unknown top-level key '" + std::string(key) + "'" +
                          (near.empty() ? "; expected scene, budget, camera, render, entity, event or joint"
                                        : " (did you mean '" + near + "'?)"));
@@ -562,7 +575,8 @@ SceneDef peekScene(const std::string& path, const std::string& text) {
         ctx.fail(nullptr, "the scenario needs a [scene] table");
     }
     scene.name = s->get_as<std::string>("name") ? s->get_as<std::string>("name")->get() : "";
-    scene.description = s->get_as<std::string>("description") ? s->get_as<std::string>("description")->get() : "";
+    scene.description =
+        s->get_as<std::string>("description") ? s->get_as<std::string>("description")->get() : "";
     return scene;
 }
 

@@ -22,11 +22,11 @@ namespace tumble {
 
 /// A loaded scenario: what the run needs beyond the entities it created.
 struct Scenario {
-    std::string path;                    ///< as given (messages name it)
-    std::string text;                    ///< the file's text, unchanged (replays keep it)
-    std::vector<std::string> overrides;  ///< the --set arguments, in order
+    std::string path;                   ///< as given (messages name it)
+    std::string text;                   ///< the file's text, unchanged (replays keep it)
+    std::vector<std::string> overrides; ///< the --set arguments, in order
     SceneDef scene;
-    std::vector<EventDef> events;        ///< sorted by step, then file order
+    std::vector<EventDef> events; ///< sorted by step, then file order
 };
 
 /// Reads a scenario file. Throws ScenarioError (file named, no line) when it cannot be read.

@@ -14,12 +14,12 @@ namespace tumble {
 struct SceneDef {
     std::string name;
     std::string description;
-    double dt = 1.0 / 60.0;                      ///< s, fixed physics step
-    int substeps = 1;                            ///< fixed steps per frame
-    std::int64_t frames = 600;                   ///< default run length
+    double dt = 1.0 / 60.0;                         ///< s, fixed physics step
+    int substeps = 1;                               ///< fixed steps per frame
+    std::int64_t frames = 600;                      ///< default run length
     std::array<double, 3> gravity{0.0, -9.81, 0.0}; ///< m/s^2
     std::uint64_t seed = 1;
-    double physicsBudgetMs = 8.0;                ///< per frame, held to p99 by `tumble budget`
+    double physicsBudgetMs = 8.0; ///< per frame, held to p99 by `tumble budget`
     std::array<double, 3> cameraEye{0.0, 1.5, 5.0};
     std::array<double, 3> cameraTarget{0.0, 1.0, 0.0};
     double cameraFovDeg = 45.0;
@@ -34,15 +34,15 @@ struct SceneDef {
 /// of the first step whose time reaches t (a step within a millionth of t counts as reaching it, so a dt
 /// written with few digits still lands `at = 2.0` on the step at 2 s).
 struct EventDef {
-    std::uint64_t step = 0;            ///< the fixed step at whose start it applies
+    std::uint64_t step = 0; ///< the fixed step at whose start it applies
     std::string entity;
     std::string action;
-    Entity target;                     ///< the entity, resolved when the scenario loads
-    std::size_t actionIndex = 0;       ///< which of the catalog's actions applies, resolved at load
-    std::vector<double> value;         ///< the `value` key: one number or an array of numbers
-    std::array<double, 3> position{};  ///< the `position` key (disturb)
-    double radius = 0.0;               ///< the `radius` key (disturb), m
-    double amount = 0.0;               ///< the `amount` key (disturb), m
+    Entity target;                    ///< the entity, resolved when the scenario loads
+    std::size_t actionIndex = 0;      ///< which of the catalog's actions applies, resolved at load
+    std::vector<double> value;        ///< the `value` key: one number or an array of numbers
+    std::array<double, 3> position{}; ///< the `position` key (disturb)
+    double radius = 0.0;              ///< the `radius` key (disturb), m
+    double amount = 0.0;              ///< the `amount` key (disturb), m
 };
 
 } // namespace tumble

@@ -102,7 +102,10 @@ std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, s
     slots(true);
     w.endArray();
     w.key("frame").beginObject().key("physics_p50_ms").value(roundMs(f.physicsP50Ms));
-    w.key("physics_p99_ms").value(roundMs(f.physicsP99Ms)).key("physics_max_ms").value(roundMs(f.physicsMaxMs));
+    w.key("physics_p99_ms")
+        .value(roundMs(f.physicsP99Ms))
+        .key("physics_max_ms")
+        .value(roundMs(f.physicsMaxMs));
     w.key("render_p50_ms").value(roundMs(f.renderP50Ms)).key("over_budget_frames").value(f.overBudgetFrames);
     w.endObject().endObject();
     out += '\n';

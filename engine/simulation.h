@@ -43,8 +43,8 @@ public:
     const Schedule& schedule() const { return m_schedule; }
     const Catalog& catalog() const { return m_catalog; }
 
-    std::uint64_t frame() const { return m_frame; }   ///< frames completed
-    std::uint64_t step() const { return m_step; }     ///< fixed steps completed
+    std::uint64_t frame() const { return m_frame; } ///< frames completed
+    std::uint64_t step() const { return m_step; }   ///< fixed steps completed
     double time() const { return static_cast<double>(m_step) * m_scenario.scene.dt; } ///< simulated, s
 
     std::uint64_t hash() const;

@@ -8,12 +8,12 @@ namespace tumble {
 
 /// Context for one run of a phase.
 struct StepContext {
-    double dt = 1.0 / 60.0;      ///< fixed physics step, s (the scene's dt)
-    std::uint64_t step = 0;      ///< index of this fixed step since the start (fixed phase)
-    std::uint64_t frame = 0;     ///< index of the frame being produced
-    double time = 0.0;           ///< simulated time at the start of this step, s (= step * dt)
-    std::uint64_t seed = 1;      ///< the scene seed; derive per-purpose streams with streamSeed()
-    double alpha = 0.0;          ///< frame phase: interpolation fraction between the last two fixed steps
+    double dt = 1.0 / 60.0;  ///< fixed physics step, s (the scene's dt)
+    std::uint64_t step = 0;  ///< index of this fixed step since the start (fixed phase)
+    std::uint64_t frame = 0; ///< index of the frame being produced
+    double time = 0.0;       ///< simulated time at the start of this step, s (= step * dt)
+    std::uint64_t seed = 1;  ///< the scene seed; derive per-purpose streams with streamSeed()
+    double alpha = 0.0;      ///< frame phase: interpolation fraction between the last two fixed steps
 };
 
 } // namespace tumble

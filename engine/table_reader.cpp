@@ -87,16 +87,26 @@ std::string nearestName(std::string_view typo, const std::vector<std::string>& k
 
 std::string describeType(const toml::node& n) {
     switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a number";
-    case toml::node_type::boolean: return "a boolean";
-    case toml::node_type::date: return "a date";
-    case toml::node_type::time: return "a time";
-    case toml::node_type::date_time: return "a date-time";
-    default: return "nothing";
+    case toml::node_type::table:
+        return "a table";
+    case toml::node_type::array:
+        return "an array";
+    case toml::node_type::string:
+        return "a string";
+    case toml::node_type::integer:
+        return "an integer";
+    case toml::node_type::floating_point:
+        return "a number";
+    case toml::node_type::boolean:
+        return "a boolean";
+    case toml::node_type::date:
+        return "a date";
+    case toml::node_type::time:
+        return "a time";
+    case toml::node_type::date_time:
+        return "a date-time";
+    default:
+        return "nothing";
     }
 }
 
@@ -156,7 +166,8 @@ double TableReader::requiredNumber(std::string_view key, double lo, double hi) {
     return toNumber(*n, key, lo, hi);
 }
 
-std::int64_t TableReader::integer(std::string_view key, std::int64_t fallback, std::int64_t lo, std::int64_t hi) {
+std::int64_t TableReader::integer(std::string_view key, std::int64_t fallback, std::int64_t lo,
+                                  std::int64_t hi) {
     const toml::node* n = node(key);
     if (!n) {
         return fallback;
@@ -237,8 +248,8 @@ void TableReader::readNumbers(const toml::node& n, std::string_view key, double*
     }
 }
 
-std::pair<double, double> TableReader::range(std::string_view key, std::pair<double, double> fallback, double lo,
-                                             double hi) {
+std::pair<double, double> TableReader::range(std::string_view key, std::pair<double, double> fallback,
+                                             double lo, double hi) {
     const toml::node* n = node(key);
     if (!n) {
         return fallback;

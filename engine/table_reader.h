@@ -24,8 +24,8 @@ public:
     ScenarioError(std::string file, int line, int column, const std::string& message);
 
     const std::string& file() const { return m_file; }
-    int line() const { return m_line; }       ///< 0 when unknown
-    int column() const { return m_column; }   ///< 0 when unknown
+    int line() const { return m_line; }     ///< 0 when unknown
+    int column() const { return m_column; } ///< 0 when unknown
     const std::string& message() const { return m_message; }
 
 private:
@@ -37,8 +37,8 @@ private:
 
 /// What the readers of one scenario share: its path and which nodes came from --set overrides.
 struct LoadContext {
-    std::string file;                                     ///< shown in every message
-    std::map<const toml::node*, std::string> overrideOf;  ///< node -> the "--set KEY=VALUE" that made it
+    std::string file;                                    ///< shown in every message
+    std::map<const toml::node*, std::string> overrideOf; ///< node -> the "--set KEY=VALUE" that made it
 
     /// Throws ScenarioError located at the node (or at its override).
     [[noreturn]] void fail(const toml::node* at, const std::string& message) const;
@@ -47,11 +47,11 @@ struct LoadContext {
 
 /// Limits every scenario obeys, so that no input can exhaust memory or time.
 struct Limits {
-    static constexpr std::size_t kMaxFileBytes = 16u << 20;    ///< scenario file size
-    static constexpr std::size_t kMaxArray = 1u << 20;         ///< elements of any one array
-    static constexpr std::size_t kMaxString = 4096;            ///< characters of any one string
-    static constexpr std::int64_t kMaxEntities = 100000;       ///< entities after repeat/scatter
-    static constexpr std::size_t kMaxLoadedNodes = 50u << 20;  ///< component values read, copies included
+    static constexpr std::size_t kMaxFileBytes = 16u << 20;   ///< scenario file size
+    static constexpr std::size_t kMaxArray = 1u << 20;        ///< elements of any one array
+    static constexpr std::size_t kMaxString = 4096;           ///< characters of any one string
+    static constexpr std::int64_t kMaxEntities = 100000;      ///< entities after repeat/scatter
+    static constexpr std::size_t kMaxLoadedNodes = 50u << 20; ///< component values read, copies included
 };
 
 /// Typed reads of one table; see the header comment.
@@ -77,7 +77,8 @@ public:
     std::string string(std::string_view key, std::string fallback);
     std::string requiredString(std::string_view key);
     /// One of the given names.
-    std::string choice(std::string_view key, std::string fallback, std::initializer_list<std::string_view> names);
+    std::string choice(std::string_view key, std::string fallback,
+                       std::initializer_list<std::string_view> names);
     /// An array of exactly N finite numbers, each in [lo, hi].
     template <std::size_t N>
     std::array<double, N> vector(std::string_view key, std::array<double, N> fallback, double lo, double hi) {
@@ -90,7 +91,8 @@ public:
         return out;
     }
     /// [min, max] with min <= max, each in [lo, hi]; a single number means min = max.
-    std::pair<double, double> range(std::string_view key, std::pair<double, double> fallback, double lo, double hi);
+    std::pair<double, double> range(std::string_view key, std::pair<double, double> fallback, double lo,
+                                    double hi);
     /// An array of at most maxLen elements, or nullptr when absent.
     const toml::array* array(std::string_view key, std::size_t maxLen);
     /// A sub-table, or nullptr when absent.
@@ -99,7 +101,9 @@ public:
     /// Fail at a key's value (or at the table when the key is absent).
     [[noreturn]] void fail(std::string_view key, const std::string& message) const;
     /// Fail at a node inside this table.
-    [[noreturn]] void failAt(const toml::node& at, const std::string& message) const { m_ctx.fail(&at, message); }
+    [[noreturn]] void failAt(const toml::node& at, const std::string& message) const {
+        m_ctx.fail(&at, message);
+    }
     /// Reject every key that no read has named.
     void finish() const;
 

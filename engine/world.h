@@ -308,9 +308,9 @@ private:
     std::vector<std::uint8_t> m_alive;        ///< 1 while the slot holds a living entity
     std::vector<std::uint32_t> m_free;        ///< slots to reuse, most recently freed last
     std::size_t m_living = 0;
-    int m_iterating = 0;                      ///< views iterating right now
-    std::vector<std::unique_ptr<PoolBase>> m_pools;      ///< by detail::typeId
-    std::vector<std::shared_ptr<void>> m_resources;      ///< by detail::typeId
+    int m_iterating = 0;                            ///< views iterating right now
+    std::vector<std::unique_ptr<PoolBase>> m_pools; ///< by detail::typeId
+    std::vector<std::shared_ptr<void>> m_resources; ///< by detail::typeId
     Commands m_commands;
 };
 

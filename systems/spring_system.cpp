@@ -49,8 +49,9 @@ void stepSymplecticEuler(SpringNetwork& net, const Vec3& gravity, double dt) {
 }
 
 Integrator parseIntegrator(TableReader& r) {
-    const std::string name = r.choice("integrator", "symplectic_euler",
-                                      {"explicit_euler", "midpoint", "rk4", "symplectic_euler", "implicit_euler"});
+    const std::string name =
+        r.choice("integrator", "symplectic_euler",
+                 {"explicit_euler", "midpoint", "rk4", "symplectic_euler", "implicit_euler"});
     if (name != "symplectic_euler") {
         r.fail("integrator", "integrator '" + name +
                                  "' is part of the scenario format but not implemented in this build yet; "
@@ -116,7 +117,8 @@ void loadSprings(TableReader& r, World& world, Entity entity, const SceneDef&) {
             s.a = static_cast<std::uint32_t>(l.integer("a", 0, 0, last));
             s.b = static_cast<std::uint32_t>(l.integer("b", 0, 0, last));
             if (s.a == s.b) {
-                l.fail("b", "a link must join two different masses, not mass " + std::to_string(s.a) + " to itself");
+                l.fail("b", "a link must join two different masses, not mass " + std::to_string(s.a) +
+                                " to itself");
             }
             s.rest = l.number("rest", length(net.x[s.b] - net.x[s.a]), 0.0, kHugeCoordinate);
             s.k = l.number("k", stiffness, 0.0, 1e12);
@@ -166,7 +168,8 @@ std::optional<std::string> needsIndices(const World& world, Entity e, const Even
     }
     for (double d : ev.value) {
         if (d < 0 || d != std::floor(d) || d >= static_cast<double>(n)) {
-            return "mass index " + std::to_string(d) + " is not a whole number in [0, " + std::to_string(n - 1) + "]";
+            return "mass index " + std::to_string(d) + " is not a whole number in [0, " +
+                   std::to_string(n - 1) + "]";
         }
     }
     return std::nullopt;
@@ -181,7 +184,8 @@ bool hasSprings(const World& w, Entity e) {
 void integrateSprings(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Vec3 gravity{g[0], g[1], g[2]};
-    world.view<SpringNetwork>().each([&](Entity, SpringNetwork& net) { stepSymplecticEuler(net, gravity, ctx.dt); });
+    world.view<SpringNetwork>().each(
+        [&](Entity, SpringNetwork& net) { stepSymplecticEuler(net, gravity, ctx.dt); });
 }
 
 void registerSpringSystem(Catalog& catalog) {
@@ -189,7 +193,11 @@ void registerSpringSystem(Catalog& catalog) {
     catalog.addState<SpringNetwork>("springs", dumpSprings, hashSprings);
 
     // impulse: a momentum change J shared by the free masses (each gets dv = J / their total mass)
-    catalog.addEventAction({"impulse", "a spring network", {"value"}, hasSprings, needsVector,
+    catalog.addEventAction({"impulse",
+                            "a spring network",
+                            {"value"},
+                            hasSprings,
+                            needsVector,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 double total = 0.0;
@@ -206,7 +214,11 @@ void registerSpringSystem(Catalog& catalog) {
                                     }
                                 }
                             }});
-    catalog.addEventAction({"set_velocity", "a spring network", {"value"}, hasSprings, needsVector,
+    catalog.addEventAction({"set_velocity",
+                            "a spring network",
+                            {"value"},
+                            hasSprings,
+                            needsVector,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 for (std::size_t i = 0; i < net.v.size(); ++i) {
@@ -215,7 +227,11 @@ void registerSpringSystem(Catalog& catalog) {
                                     }
                                 }
                             }});
-    catalog.addEventAction({"pin", "a spring network", {"value"}, hasSprings, needsIndices,
+    catalog.addEventAction({"pin",
+                            "a spring network",
+                            {"value"},
+                            hasSprings,
+                            needsIndices,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 for (double d : ev.value) {
@@ -224,7 +240,11 @@ void registerSpringSystem(Catalog& catalog) {
                                     net.v[i] = {};
                                 }
                             }});
-    catalog.addEventAction({"unpin", "a spring network", {"value"}, hasSprings, needsIndices,
+    catalog.addEventAction({"unpin",
+                            "a spring network",
+                            {"value"},
+                            hasSprings,
+                            needsIndices,
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& net = w.get<SpringNetwork>(e);
                                 for (double d : ev.value) {

@@ -7,21 +7,21 @@
 
 #include <chrono>
 #include <csignal>
+#include <fcntl.h>
 #include <filesystem>
 #include <sstream>
-#include <thread>
-#include <fcntl.h>
 #include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 
 namespace tumble {
 namespace {
 
+using nlohmann::json;
 using test::readFile;
 using test::runTumble;
 using test::tempPath;
 using test::writeTemp;
-using nlohmann::json;
 
 std::vector<json> jsonLines(const std::string& text) {
     std::vector<json> out;
@@ -44,8 +44,8 @@ TEST(Cli, HelpForEveryVerb) {
         EXPECT_NE(top.out.find(verb), std::string::npos) << verb;
     }
     const auto run = runTumble({"run", "--help"});
-    for (const char* opt : {"--frames", "--out", "--no-render", "--dump", "--dump-every", "--profile", "--trace",
-                            "--set", "--quiet"}) {
+    for (const char* opt : {"--frames", "--out", "--no-render", "--dump", "--dump-every", "--profile",
+                            "--trace", "--set", "--quiet"}) {
         EXPECT_NE(run.out.find(opt), std::string::npos) << opt;
     }
 }
@@ -83,10 +83,11 @@ TEST(Cli, CheckPrintsNothingOnSuccess) {
 
 TEST(Cli, RunWritesProfileTraceAndDumpPerContract) {
     const std::string profile = tempPath("p.json"), trace = tempPath("t.json"), dump = tempPath("d.jsonl");
-    const auto r = runTumble({"run", "pendulum", "--no-render", "--frames", "30", "--profile", profile, "--trace",
-                              trace, "--dump", dump, "--out", tempPath("contract")});
+    const auto r = runTumble({"run", "pendulum", "--no-render", "--frames", "30", "--profile", profile,
+                              "--trace", trace, "--dump", dump, "--out", tempPath("contract")});
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_NE(r.err.find("wrote " + profile), std::string::npos) << "it says where its outputs are: " << r.err;
+    EXPECT_NE(r.err.find("wrote " + profile), std::string::npos)
+        << "it says where its outputs are: " << r.err;
 
     // profile
     const json p = json::parse(readFile(profile));
@@ -109,7 +110,8 @@ TEST(Cli, RunWritesProfileTraceAndDumpPerContract) {
         }
     }
     EXPECT_TRUE(sawSprings);
-    for (const char* k : {"physics_p50_ms", "physics_p99_ms", "physics_max_ms", "render_p50_ms", "over_budget_frames"}) {
+    for (const char* k :
+         {"physics_p50_ms", "physics_p99_ms", "physics_max_ms", "render_p50_ms", "over_budget_frames"}) {
         EXPECT_TRUE(p["frame"].contains(k)) << k;
     }
 
@@ -151,16 +153,21 @@ TEST(Cli, DumpEveryKFramesStartsWithTheInitialState) {
 TEST(Cli, TwoRunsDumpTheSameBits) {
     const std::string a = tempPath("a.jsonl"), b = tempPath("b.jsonl");
     ASSERT_EQ(runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "120", "--dump", a,
-                         "--dump-every", "1", "--out", tempPath("run_a")}).exitCode, 0);
+                         "--dump-every", "1", "--out", tempPath("run_a")})
+                  .exitCode,
+              0);
     ASSERT_EQ(runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "120", "--dump", b,
-                         "--dump-every", "1", "--out", tempPath("run_b")}).exitCode, 0);
+                         "--dump-every", "1", "--out", tempPath("run_b")})
+                  .exitCode,
+              0);
     EXPECT_EQ(readFile(a), readFile(b));
 }
 
 TEST(Cli, OverridesReachTheRun) {
     const std::string dump = tempPath("o.jsonl");
-    const auto r = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "2", "--dump", dump, "--set",
-                              "scene.substeps=1", "--set", "scene.dt=0.01", "--out", tempPath("overrides")});
+    const auto r =
+        runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "2", "--dump", dump, "--set",
+                   "scene.substeps=1", "--set", "scene.dt=0.01", "--out", tempPath("overrides")});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_DOUBLE_EQ(jsonLines(readFile(dump))[0]["t"].get<double>(), 0.02);
 }
@@ -174,21 +181,23 @@ TEST(Cli, DefaultProfileGoesIntoTheOutputFolder) {
 }
 
 TEST(Cli, QuietIsQuietAndPipesGetNoProgressBar) {
-    const auto quiet = runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "3", "--out", tempPath("q")});
+    const auto quiet =
+        runTumble({"run", "pendulum", "--no-render", "--quiet", "--frames", "3", "--out", tempPath("q")});
     EXPECT_EQ(quiet.exitCode, 0);
     EXPECT_TRUE(quiet.err.empty()) << quiet.err;
-    const auto piped = runTumble({"run", "pendulum", "--no-render", "--frames", "3", "--out", tempPath("q2")});
+    const auto piped =
+        runTumble({"run", "pendulum", "--no-render", "--frames", "3", "--out", tempPath("q2")});
     EXPECT_EQ(piped.err.find('\r'), std::string::npos) << "no progress bar on a pipe";
-    const auto asked = runTumble({"run", "pendulum", "--no-render", "--progress", "--frames", "3000", "--out",
-                                  tempPath("q3")});
+    const auto asked = runTumble(
+        {"run", "pendulum", "--no-render", "--progress", "--frames", "3000", "--out", tempPath("q3")});
     EXPECT_NE(asked.err.find("frame 3000/3000"), std::string::npos) << asked.err;
 }
 
 TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
     const std::string blocker = writeTemp("blocker", "a file, not a folder");
     for (const char* option : {"--dump", "--trace", "--profile"}) {
-        const auto r = runTumble({"run", "pendulum", "--no-render", option, blocker + "/x.json", "--out",
-                                  tempPath("unwritable")});
+        const auto r = runTumble(
+            {"run", "pendulum", "--no-render", option, blocker + "/x.json", "--out", tempPath("unwritable")});
         EXPECT_EQ(r.exitCode, 1) << option;
         EXPECT_NE(r.err.find("cannot write " + blocker + "/x.json"), std::string::npos) << r.err;
         EXPECT_EQ(r.err.find("frames,"), std::string::npos) << "it fails before running: " << r.err;
@@ -202,8 +211,9 @@ TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
     if (pid == 0) {
         const int devnull = ::open("/dev/null", O_WRONLY);
         ::dup2(devnull, STDERR_FILENO);
-        ::execl(TUMBLE_BINARY, TUMBLE_BINARY, "run", "pendulum", "--no-render", "--frames", "1000000000", "--dump",
-                dump.c_str(), "--dump-every", "1000", "--profile", profile.c_str(), static_cast<char*>(nullptr));
+        ::execl(TUMBLE_BINARY, TUMBLE_BINARY, "run", "pendulum", "--no-render", "--frames", "1000000000",
+                "--dump", dump.c_str(), "--dump-every", "1000", "--profile", profile.c_str(),
+                static_cast<char*>(nullptr));
         ::_exit(127);
     }
     // wait until it is running (the initial state is dumped before the first frame), then a little more

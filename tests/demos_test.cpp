@@ -27,8 +27,8 @@ class Demo : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Demo, RunsHeadlesslyForAFewFrames) {
     const std::string dump = test::tempPath(GetParam() + ".jsonl");
-    const auto r = test::runTumble({"run", GetParam(), "--no-render", "--frames", "10", "--quiet", "--dump", dump,
-                                    "--out", test::tempPath(GetParam())});
+    const auto r = test::runTumble({"run", GetParam(), "--no-render", "--frames", "10", "--quiet", "--dump",
+                                    dump, "--out", test::tempPath(GetParam())});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const std::string text = test::readFile(dump);
     EXPECT_EQ(text.find("NaN"), std::string::npos);

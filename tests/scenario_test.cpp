@@ -79,8 +79,9 @@ TEST(Scenario, OverrideErrorsNameTheOverride) {
         simulate(kPendulum, {"scene.substeps=many"});
         FAIL() << "expected a ScenarioError";
     } catch (const ScenarioError& e) {
-        EXPECT_NE(std::string(e.what()).find("--set scene.substeps=many: 'substeps' in [scene] must be an integer"),
-                  std::string::npos)
+        EXPECT_NE(
+            std::string(e.what()).find("--set scene.substeps=many: 'substeps' in [scene] must be an integer"),
+            std::string::npos)
             << e.what();
         EXPECT_EQ(e.file(), "test.toml");
     }
@@ -162,8 +163,13 @@ value = [0, 0, 0]
 
 TEST(Scenario, EventTimesBetweenStepsApplyAtTheNextStep) {
     auto at = [&](const std::string& t, const std::string& dt) {
-        return simulate(kPendulum + "[[event]]\nat = " + t + "\nentity = \"bob\"\naction = \"impulse\"\n"
-                                    "value = [0, 0, 1]\n", {"scene.dt=" + dt})->scenario().events.at(0).step;
+        return simulate(kPendulum + "[[event]]\nat = " + t +
+                            "\nentity = \"bob\"\naction = \"impulse\"\n"
+                            "value = [0, 0, 1]\n",
+                        {"scene.dt=" + dt})
+            ->scenario()
+            .events.at(0)
+            .step;
     };
     EXPECT_EQ(at("0.015", "0.01"), 2u) << "the first step whose time reaches 0.015 s starts at 0.02 s";
     EXPECT_EQ(at("0.02", "0.01"), 2u);

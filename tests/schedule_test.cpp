@@ -35,8 +35,10 @@ TEST(Schedule, QueuedChangesApplyAtTheEndOfThePhase) {
     World w;
     const Entity e = w.create();
     bool seenInSamePhase = true;
-    s.add(Phase::Fixed, "spawner", [&](World& world, const StepContext&) { world.commands().emplace(e, Marker{}); });
-    s.add(Phase::Fixed, "observer", [&](World& world, const StepContext&) { seenInSamePhase = world.has<Marker>(e); });
+    s.add(Phase::Fixed, "spawner",
+          [&](World& world, const StepContext&) { world.commands().emplace(e, Marker{}); });
+    s.add(Phase::Fixed, "observer",
+          [&](World& world, const StepContext&) { seenInSamePhase = world.has<Marker>(e); });
     s.run(Phase::Fixed, w, StepContext{});
     EXPECT_FALSE(seenInSamePhase) << "a change queued in a phase is not visible until the phase ends";
     EXPECT_TRUE(w.has<Marker>(e));
@@ -55,9 +57,8 @@ TEST(Schedule, DestroyRequestedDuringIterationAppliesAtTheEndOfThePhase) {
     s.add(Phase::Fixed, "reaper", [](World& world, const StepContext&) {
         world.view<Marker>().each([&world](Entity e, Marker&) { world.commands().destroy(e); });
     });
-    s.add(Phase::Fixed, "counter", [&](World& world, const StepContext&) {
-        seenByLaterSystem = world.view<Marker>().count();
-    });
+    s.add(Phase::Fixed, "counter",
+          [&](World& world, const StepContext&) { seenByLaterSystem = world.view<Marker>().count(); });
     s.run(Phase::Fixed, w, StepContext{});
     EXPECT_EQ(seenByLaterSystem, 4u) << "later systems of the phase still see the entities";
     EXPECT_EQ(w.size(), 0u) << "and they are gone when the phase ends";

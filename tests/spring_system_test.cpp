@@ -28,7 +28,8 @@ SpringNetwork& network(Simulation& sim, const std::string& name) {
 /// with x(0) = 1 + a, v(0) = 0.
 std::string oscillator(double dt, double k, double m, double kd, double amplitude) {
     return "[scene]\nname = \"osc\"\ngravity = [0, 0, 0]\ndt = " + std::to_string(dt) +
-           "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [" +
+           "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0], pinned = true }, { x "
+           "= [" +
            std::to_string(1.0 + amplitude) + ", 0, 0], m = " + std::to_string(m) +
            " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " + std::to_string(k) +
            ", kd = " + std::to_string(kd) + " } ]\n";
@@ -55,8 +56,9 @@ TEST(SpringSystem, FreeFallMatchesTheSymplecticEulerSolutionAndConvergesAtFirstO
     const double g = 9.81;
     double previousError = 0.0;
     for (double dt : {0.01, 0.005, 0.0025}) {
-        auto sim = simulate("[scene]\nname = \"fall\"\ndt = " + std::to_string(dt) +
-                            "\n[[entity]]\nname = \"ball\"\n[entity.springs]\nmasses = [ { x = [0, 10, 0] } ]\n");
+        auto sim =
+            simulate("[scene]\nname = \"fall\"\ndt = " + std::to_string(dt) +
+                     "\n[[entity]]\nname = \"ball\"\n[entity.springs]\nmasses = [ { x = [0, 10, 0] } ]\n");
         const int steps = static_cast<int>(std::lround(1.0 / dt));
         for (int i = 0; i < steps; ++i) {
             sim->runFrame();
@@ -114,7 +116,8 @@ TEST(SpringSystem, SymplecticEulerKeepsUndampedEnergyBounded) {
         const double x = net.x[1].x - 1.0, v = net.v[1].x;
         return 0.5 * k * x * x + 0.5 * m * v * v;
     };
-    // 200 periods (period 0.63 s): the relative error oscillates with amplitude ~ omega dt / 2 and never grows
+    // 200 periods (period 0.63 s): the relative error oscillates with amplitude ~ omega dt / 2 and never
+    // grows
     double worstEarly = 0.0, worstLate = 0.0;
     const int steps = 12600;
     for (int i = 0; i < steps; ++i) {

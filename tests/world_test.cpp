@@ -121,11 +121,11 @@ TEST(World, ConstViewHandsOutConstReferences) {
     const Entity e = w.create();
     w.emplace<Position>(e);
     w.view<const Position>().each([](Entity, auto& p) {
-        static_assert(std::is_const_v<std::remove_reference_t<decltype(p)>>, "a const view must be read-only");
+        static_assert(std::is_const_v<std::remove_reference_t<decltype(p)>>,
+                      "a const view must be read-only");
     });
-    w.view<Position>().each([](Entity, auto& p) {
-        static_assert(!std::is_const_v<std::remove_reference_t<decltype(p)>>);
-    });
+    w.view<Position>().each(
+        [](Entity, auto& p) { static_assert(!std::is_const_v<std::remove_reference_t<decltype(p)>>); });
 }
 
 TEST(World, StructuralChangesDuringIterationAreRefused) {

@@ -13,7 +13,7 @@
 namespace tumble {
 namespace {
 
-constexpr int kSystems = 12;           // about what a full scene registers
+constexpr int kSystems = 12; // about what a full scene registers
 
 // one timed scope: two clock reads and the bookkeeping
 void BM_ProfilerScope(benchmark::State& state) {
@@ -32,7 +32,10 @@ void BM_ProfiledFrame(benchmark::State& state) {
     Schedule s(p);
     int counter = 0;
     for (int i = 0; i < kSystems; ++i) {
-        s.add(i < 2 ? Phase::Input : i < 10 ? Phase::Fixed : Phase::Frame, "s" + std::to_string(i),
+        s.add(i < 2    ? Phase::Input
+              : i < 10 ? Phase::Fixed
+                       : Phase::Frame,
+              "s" + std::to_string(i),
               [&counter](World&, const StepContext&) { benchmark::DoNotOptimize(++counter); });
     }
     World w;
