@@ -1,36 +1,57 @@
 #pragma once
 // A mass-spring network: point masses joined by Hooke springs with damping. One entity holds the whole
-// network as structure-of-arrays (a rope, a cloth or a jelly is one entity, not one per mass).
+// network as arrays, one entry per mass (a rope, a cloth or a jelly is one entity, not one per mass). The
+// builders (springs, rope, cloth, softbody) differ only in how they lay out masses and links; one set of
+// integrators advances them all.
 
 #include "engine/math.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
 namespace tumble {
 
-/// How a spring network is advanced in time.
+/// How a spring network is advanced in time (see systems/spring_integrators.h for each one's order,
+/// stability and cost).
 enum class Integrator : std::uint8_t { ExplicitEuler, Midpoint, Rk4, SymplecticEuler, ImplicitEuler };
+
+/// What built the network; it decides the dump's kind and how the renderer draws it.
+enum class NetworkKind : std::uint8_t { Springs, Rope, Cloth, SoftBody };
 
 /// One spring between masses a and b.
 struct SpringLink {
-    std::uint32_t a = 0;
-    std::uint32_t b = 0;
-    double rest = 0.0; ///< m, rest length
-    double k = 0.0;    ///< N/m, stiffness
-    double kd = 0.0;   ///< N s/m, damping along the spring on the relative velocity
+    std::uint32_t a = 0; ///< first mass
+    std::uint32_t b = 0; ///< second mass
+    double rest = 0.0;   ///< m, rest length
+    double k = 0.0;      ///< N/m, stiffness
+    double kd = 0.0;     ///< N s/m, damping along the spring on the relative velocity
 };
 
-/// The state of a spring network (all arrays have one entry per mass).
+/// The state and model of a spring network; every per-mass array has one entry per mass.
 struct SpringNetwork {
-    std::vector<Vec3> x;              ///< m, world positions
-    std::vector<Vec3> v;              ///< m/s
+    // state, advanced by the spring system
+    std::vector<Vec3> x; ///< m, world positions
+    std::vector<Vec3> v; ///< m/s
+
+    // model: set by the builder, changed only by events (pin, unpin)
     std::vector<double> invMass;      ///< 1/kg (a pinned mass keeps its mass for when it is unpinned)
     std::vector<std::uint8_t> pinned; ///< 1 if the mass is held in place
     std::vector<SpringLink> links;
-    double drag = 0.0; ///< N s/m, global -drag * v on every mass
+    double drag = 0.0; ///< N s/m, global -drag v on every mass
     Integrator integrator = Integrator::SymplecticEuler;
-    std::vector<Vec3> force; ///< N, scratch for the step (not state)
+    double thickness = 0.0;    ///< m, kept between masses and collider surfaces
+    double friction = 0.5;     ///< Coulomb coefficient against colliders
+    double cgTolerance = 1e-4; ///< implicit Euler: relative residual the solve stops at
+    int cgMaxIterations = 200; ///< implicit Euler: iterations at most per step
+
+    // shape, for wind on surfaces, the dump and the renderer
+    NetworkKind kind = NetworkKind::Springs;
+    std::array<std::uint32_t, 3> grid{0, 0, 0};          ///< cloth: rows, cols; softbody: nx, ny, nz
+    std::vector<std::array<std::uint32_t, 3>> triangles; ///< surface triangles (cloth), counter-clockwise
+
+    // set when the network blew up: it is no longer advanced
+    bool frozen = false;
 };
 
 } // namespace tumble

@@ -1,6 +1,7 @@
 #include "engine/cli.h"
 
 #include "engine/progress.h"
+#include "engine/run_report.h"
 #include "engine/simulation.h"
 
 #include <CLI/CLI.hpp>
@@ -163,12 +164,19 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         dumpNow(); // the initial state, frame 0
     }
     bool interrupted = false;
+    std::size_t reported = 0;
     while (sim.frame() < frames) {
         if (g_interrupted.load()) {
             interrupted = true;
             break;
         }
         sim.runFrame();
+        // problems met during the run are said as they appear (the progress bar makes way)
+        const auto& failures = sim.world().resource<RunReport>().failures;
+        for (; reported < failures.size(); ++reported) {
+            bar.clearLine();
+            std::fprintf(stderr, "tumble: error: %s\n", failures[reported].c_str());
+        }
         if (o.dumpEvery > 0 && sim.frame() % static_cast<std::uint64_t>(o.dumpEvery) == 0) {
             dumpNow();
         }
@@ -213,6 +221,10 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         for (const std::string& w : wrote) {
             std::fprintf(stderr, "wrote %s\n", w.c_str());
         }
+    }
+    if (reported > 0) {
+        std::fprintf(stderr, "tumble: the run finished with %zu failure(s), listed above\n", reported);
+        return kExitFailure;
     }
     if (interrupted) {
         std::fprintf(stderr, "tumble: interrupted at frame %llu; the outputs above hold the run so far\n",

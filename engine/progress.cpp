@@ -32,6 +32,13 @@ void ProgressBar::update(std::uint64_t framesDone) {
     draw(framesDone);
 }
 
+void ProgressBar::clearLine() {
+    if (m_drawn) {
+        std::fputs("\r\033[K", m_out);
+        m_drawn = false;
+    }
+}
+
 void ProgressBar::finish(std::uint64_t framesDone) {
     if (!m_enabled) {
         return;

@@ -17,6 +17,8 @@ public:
 
     /// Frames done so far; redraws when enough wall time has passed.
     void update(std::uint64_t framesDone);
+    /// Erases the bar (if drawn) so a message can take its line; it is redrawn at the next update.
+    void clearLine();
     /// Draws the final state and ends the line.
     void finish(std::uint64_t framesDone);
 

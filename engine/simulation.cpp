@@ -2,6 +2,7 @@
 
 #include "engine/dump.h"
 #include "engine/json.h"
+#include "engine/run_report.h"
 
 #include <cmath>
 
@@ -30,6 +31,7 @@ Simulation::Simulation(const Catalog& catalog, const std::string& path, std::str
       m_loop(secondsToNs(m_scenario.scene.dt), m_scenario.scene.substeps) {
     m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
     m_world.setResource<SceneDef>(m_scenario.scene);
+    m_world.setResource<RunReport>();
     m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0});
     m_schedule.add(Phase::Input, "events",
                    [&catalog](World& w, const StepContext& ctx) { applyEvents(w, ctx, catalog); });

@@ -1,12 +1,16 @@
 #include "systems/builtin.h"
 
+#include "systems/collision_system.h"
+#include "systems/force_field_system.h"
 #include "systems/spring_system.h"
 
 namespace tumble {
 
 void registerBuiltinSystems(Catalog& catalog) {
-    // fixed phase, in order
+    // the fixed phase runs in this order
+    registerForceFieldSystem(catalog);
     registerSpringSystem(catalog);
+    registerCollisionSystem(catalog);
 }
 
 } // namespace tumble

@@ -1,9 +1,14 @@
 #include "systems/spring_system.h"
 
+#include "components/name.h"
 #include "components/transform.h"
+#include "engine/run_report.h"
 #include "engine/scene.h"
+#include "systems/spring_builders.h"
+#include "systems/spring_integrators.h"
 
 #include <cmath>
+#include <functional>
 #include <string>
 
 namespace tumble {
@@ -12,52 +17,57 @@ namespace {
 
 constexpr double kHugeCoordinate = 1e9; // m
 constexpr std::size_t kMaxMasses = 1u << 20;
+constexpr double kMaxSpeed = 1e4; // m/s: beyond it a network has blown up
 
-/// Gravity, springs and drag on every mass, into net.force.
-void accumulateForces(SpringNetwork& net, const Vec3& gravity) {
-    const std::size_t n = net.x.size();
-    net.force.assign(n, Vec3{});
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!net.pinned[i]) {
-            net.force[i] = gravity * (1.0 / net.invMass[i]) - net.v[i] * net.drag;
-        }
-    }
-    for (const SpringLink& s : net.links) {
-        const Vec3 d = net.x[s.b] - net.x[s.a];
-        const double len = length(d);
-        if (len <= 1e-12) {
-            continue; // coincident masses: no direction to push along
-        }
-        const Vec3 dir = d * (1.0 / len);
-        const double stretch = len - s.rest;
-        const double closing = dot(net.v[s.b] - net.v[s.a], dir);
-        const Vec3 f = dir * (s.k * stretch + s.kd * closing); // on a, towards b when stretched
-        net.force[s.a] += f;
-        net.force[s.b] -= f;
-    }
+constexpr std::string_view kIntegratorNames[] = {"explicit_euler", "midpoint", "rk4", "symplectic_euler",
+                                                 "implicit_euler"};
+
+std::string_view integratorName(Integrator i) {
+    return kIntegratorNames[static_cast<std::size_t>(i)];
 }
 
-void stepSymplecticEuler(SpringNetwork& net, const Vec3& gravity, double dt) {
-    accumulateForces(net, gravity);
-    for (std::size_t i = 0; i < net.x.size(); ++i) {
-        if (net.pinned[i]) {
-            continue;
-        }
-        net.v[i] += net.force[i] * (dt * net.invMass[i]);
-        net.x[i] += net.v[i] * dt;
-    }
-}
-
-Integrator parseIntegrator(TableReader& r) {
+/// Keys every network takes: integrator, drag, contact and solver settings.
+void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrator) {
     const std::string name =
-        r.choice("integrator", "symplectic_euler",
+        r.choice("integrator", defaultIntegrator,
                  {"explicit_euler", "midpoint", "rk4", "symplectic_euler", "implicit_euler"});
-    if (name != "symplectic_euler") {
-        r.fail("integrator", "integrator '" + name +
-                                 "' is part of the scenario format but not implemented in this build yet; "
-                                 "use symplectic_euler");
+    for (std::size_t i = 0; i < std::size(kIntegratorNames); ++i) {
+        if (kIntegratorNames[i] == name) {
+            net.integrator = static_cast<Integrator>(i);
+        }
     }
-    return Integrator::SymplecticEuler;
+    net.drag = r.number("drag", 0.0, 0.0, 1e9);
+    net.thickness = r.number("thickness", 0.01, 0.0, 10.0);
+    net.friction = r.number("friction", 0.5, 0.0, 100.0);
+    net.cgTolerance = r.number("cg_tolerance", 1e-4, 1e-14, 0.5);
+    net.cgMaxIterations = static_cast<int>(r.integer("cg_max_iterations", 200, 1, 100000));
+}
+
+/// `pin`: a preset name or a list of mass indices.
+std::vector<std::uint32_t>
+readPins(TableReader& r, std::size_t masses, const std::string& fallback,
+         const std::function<bool(const std::string&, std::vector<std::uint32_t>&)>& preset,
+         const std::string& presetNames) {
+    std::vector<std::uint32_t> pins;
+    const toml::node* n = r.node("pin");
+    if (n && n->is_array()) {
+        const toml::array* list = r.array("pin", masses);
+        for (const toml::node& item : *list) {
+            const auto i = item.value<std::int64_t>();
+            if (!item.is_integer() || *i < 0 || static_cast<std::size_t>(*i) >= masses) {
+                r.failAt(item, "'pin' in " + r.where() + " lists mass indices, each a whole number in [0, " +
+                                   std::to_string(masses - 1) + "]");
+            }
+            pins.push_back(static_cast<std::uint32_t>(*i));
+        }
+        return pins;
+    }
+    const std::string name = r.string("pin", fallback);
+    if (!preset(name, pins)) {
+        r.fail("pin", "'pin' in " + r.where() + " is '" + name + "'; expected " + presetNames +
+                          " or a list of mass indices");
+    }
+    return pins;
 }
 
 Vec3 readVec3(TableReader& r, const toml::node& n, std::string_view key) {
@@ -66,13 +76,17 @@ Vec3 readVec3(TableReader& r, const toml::node& n, std::string_view key) {
     return {v[0], v[1], v[2]};
 }
 
+void attach(World& world, Entity entity, SpringNetwork net) {
+    world.emplace<SpringNetwork>(entity, std::move(net));
+    world.emplace<SpringWorkspace>(entity);
+}
+
 /// [entity.springs]: masses and links given explicitly (CONTRACT.md).
 void loadSprings(TableReader& r, World& world, Entity entity, const SceneDef&) {
     SpringNetwork net;
-    net.integrator = parseIntegrator(r);
+    readCommon(r, net, "symplectic_euler");
     const double stiffness = r.number("stiffness", 100.0, 0.0, 1e12);
     const double damping = r.number("damping", 0.0, 0.0, 1e9);
-    net.drag = r.number("drag", 0.0, 0.0, 1e9);
     const Vec3 origin = world.get<Transform>(entity).position;
 
     const toml::array* masses = r.array("masses", kMaxMasses);
@@ -127,11 +141,120 @@ void loadSprings(TableReader& r, World& world, Entity entity, const SceneDef&) {
             net.links.push_back(s);
         }
     }
-    world.emplace<SpringNetwork>(entity, std::move(net));
+    attach(world, entity, std::move(net));
 }
 
-void dumpSprings(const SpringNetwork& net, JsonWriter& w) {
-    w.key("integrator").value("symplectic_euler");
+/// [entity.rope]: a chain of masses (an extension of CONTRACT.md's format).
+void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    RopeDef def;
+    def.origin = world.get<Transform>(entity).position;
+    def.segments = static_cast<int>(r.integer("segments", 20, 1, 100000));
+    def.length = r.number("length", 2.0, 1e-6, 1e6);
+    const auto d = r.vector<3>("direction", {1.0, 0.0, 0.0}, -kHugeCoordinate, kHugeCoordinate);
+    const Vec3 dir{d[0], d[1], d[2]};
+    if (length(dir) < 1e-12) {
+        r.fail("direction", "'direction' in " + r.where() + " must not be zero");
+    }
+    def.direction = dir * (1.0 / length(dir));
+    def.mass = r.number("mass", 1.0, 1e-9, 1e12);
+    def.stiffness = r.number("stiffness", 1000.0, 0.0, 1e12);
+    def.bend = r.number("bend", 0.0, 0.0, 1e12);
+    def.damping = r.number("damping", 0.0, 0.0, 1e9);
+    const auto n = static_cast<std::uint32_t>(def.segments + 1);
+    def.pins = readPins(
+        r, n, "first",
+        [n](const std::string& p, std::vector<std::uint32_t>& out) {
+            out = p == "first"  ? std::vector<std::uint32_t>{0}
+                  : p == "both" ? std::vector<std::uint32_t>{0, n - 1}
+                                : std::vector<std::uint32_t>{};
+            return p == "first" || p == "both" || p == "none";
+        },
+        "'first', 'both', 'none'");
+    SpringNetwork net = buildRope(def);
+    readCommon(r, net, "symplectic_euler");
+    attach(world, entity, std::move(net));
+}
+
+/// [entity.cloth] (CONTRACT.md).
+void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    ClothDef def;
+    def.centre = world.get<Transform>(entity).position;
+    def.rows = static_cast<int>(r.integer("rows", 20, 2, 1000));
+    def.cols = static_cast<int>(r.integer("cols", 20, 2, 1000));
+    if (std::int64_t(def.rows) * def.cols > std::int64_t(kMaxMasses)) {
+        r.fail("cols", r.where() + " has more than " + std::to_string(kMaxMasses) + " vertices");
+    }
+    def.size = r.vector<2>("size", {1.0, 1.0}, 1e-6, 1e6);
+    def.vertical = r.choice("plane", "xy", {"xy", "xz"}) == "xy";
+    def.mass = r.number("mass", 1.0, 1e-9, 1e12);
+    def.stretch = r.number("stretch", 5000.0, 0.0, 1e12);
+    def.shear = r.number("shear", 500.0, 0.0, 1e12);
+    def.bend = r.number("bend", 50.0, 0.0, 1e12);
+    def.damping = r.number("damping", 0.02, 0.0, 1e9);
+    const int rows = def.rows, cols = def.cols;
+    def.pins = readPins(
+        r, std::size_t(rows) * cols, "top-corners",
+        [rows, cols](const std::string& p, std::vector<std::uint32_t>& out) {
+            return clothPinPreset(p, rows, cols, out);
+        },
+        "'top-corners', 'top-row', 'left-edge', 'corners', 'none'");
+    if (r.boolean("self_collision", false)) {
+        r.fail("self_collision",
+               "cloth self-collision is not implemented in this build yet; set it to false");
+    }
+    SpringNetwork net = buildCloth(def);
+    readCommon(r, net, "implicit_euler");
+    attach(world, entity, std::move(net));
+}
+
+/// [entity.softbody] (CONTRACT.md; shear and bend are extensions).
+void loadSoftBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    SoftBodyDef def;
+    def.centre = world.get<Transform>(entity).position;
+    def.size = r.vector<3>("size", {1.0, 1.0, 1.0}, 1e-6, 1e6);
+    const auto res = r.vector<3>("resolution", {4.0, 4.0, 4.0}, 2.0, 1000.0);
+    for (std::size_t a = 0; a < 3; ++a) {
+        if (res[a] != std::floor(res[a])) {
+            r.fail("resolution", "'resolution' in " + r.where() + " must be whole numbers");
+        }
+        def.resolution[a] = static_cast<int>(res[a]);
+    }
+    if (std::int64_t(def.resolution[0]) * def.resolution[1] * def.resolution[2] > 200000) {
+        r.fail("resolution", r.where() + " has more than 200000 masses");
+    }
+    def.mass = r.number("mass", 1.0, 1e-9, 1e12);
+    def.stiffness = r.number("stiffness", 1000.0, 0.0, 1e12);
+    def.shear = r.number("shear", def.stiffness, 0.0, 1e12);
+    def.bend = r.number("bend", 0.1 * def.stiffness, 0.0, 1e12);
+    def.damping = r.number("damping", 0.5, 0.0, 1e9);
+    const std::size_t n = std::size_t(def.resolution[0]) * def.resolution[1] * def.resolution[2];
+    def.pins = readPins(
+        r, n, "none",
+        [](const std::string& p, std::vector<std::uint32_t>& out) {
+            out.clear();
+            return p == "none";
+        },
+        "'none'");
+    SpringNetwork net = buildSoftBody(def);
+    readCommon(r, net, "implicit_euler");
+    attach(world, entity, std::move(net));
+}
+
+constexpr std::string_view kShapeNames[] = {"springs", "rope", "cloth", "softbody"};
+
+void dumpNetwork(const SpringNetwork& net, JsonWriter& w) {
+    w.key("shape").value(kShapeNames[static_cast<std::size_t>(net.kind)]);
+    w.key("integrator").value(integratorName(net.integrator));
+    if (net.kind == NetworkKind::Cloth || net.kind == NetworkKind::SoftBody) {
+        w.key("grid").beginArray();
+        for (std::size_t a = 0; a < (net.kind == NetworkKind::Cloth ? 2u : 3u); ++a) {
+            w.value(static_cast<std::uint64_t>(net.grid[a]));
+        }
+        w.endArray();
+    }
+    if (net.frozen) {
+        w.key("frozen").value(true);
+    }
     auto list = [&w](const char* key, const std::vector<Vec3>& a) {
         w.key(key).beginArray();
         for (const Vec3& p : a) {
@@ -144,7 +267,7 @@ void dumpSprings(const SpringNetwork& net, JsonWriter& w) {
     list("v", net.v);
 }
 
-void hashSprings(const SpringNetwork& net, Hasher& h) {
+void hashNetwork(const SpringNetwork& net, Hasher& h) {
     h.add(net.x);
     h.add(net.v);
     h.add(net.invMass);
@@ -152,6 +275,7 @@ void hashSprings(const SpringNetwork& net, Hasher& h) {
     h.add(net.links);
     h.add(net.drag);
     h.add(net.integrator);
+    h.add(net.frozen);
 }
 
 std::optional<std::string> needsVector(const World&, Entity, const EventDef& ev) {
@@ -179,78 +303,108 @@ bool hasSprings(const World& w, Entity e) {
     return w.has<SpringNetwork>(e);
 }
 
+/// Adds an action on the free masses (or, for pin/unpin, on the masses listed) of a network.
+void addNetworkAction(Catalog& catalog, const char* action,
+                      std::optional<std::string> (*check)(const World&, Entity, const EventDef&),
+                      void (*apply)(SpringNetwork&, const EventDef&)) {
+    catalog.addEventAction(
+        {action,
+         "a spring network",
+         {"value"},
+         hasSprings,
+         check,
+         [apply](World& w, Entity e, const EventDef& ev) { apply(w.get<SpringNetwork>(e), ev); }});
+}
+
+/// Non-finite, or faster than any sandbox scene moves: the integrator has diverged.
+bool blewUp(const SpringNetwork& net) {
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        if (!isFinite(net.x[i]) || !isFinite(net.v[i]) || dot(net.v[i], net.v[i]) > kMaxSpeed * kMaxSpeed) {
+            return true;
+        }
+    }
+    return false;
+}
+
 } // namespace
 
 void integrateSprings(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
-    const Vec3 gravity{g[0], g[1], g[2]};
-    world.view<SpringNetwork>().each(
-        [&](Entity, SpringNetwork& net) { stepSymplecticEuler(net, gravity, ctx.dt); });
+    const Pool<ForceField>* fields = world.findPool<ForceField>();
+    const Environment env{{g[0], g[1], g[2]}, fields && fields->size() > 0 ? &fields->values() : nullptr};
+    world.view<const Name, SpringNetwork, SpringWorkspace>().each(
+        [&](Entity, const Name& name, SpringNetwork& net, SpringWorkspace& work) {
+            if (net.frozen) {
+                return;
+            }
+            stepNetwork(net, work, env, ctx.dt);
+            if (blewUp(net)) {
+                // freeze it where it is, say so once, and let the rest of the scene run on
+                net.frozen = true;
+                for (Vec3& v : net.v) {
+                    v = Vec3{};
+                }
+                world.resource<RunReport>().failures.push_back(
+                    "entity '" + name.value + "' blew up at frame " + std::to_string(ctx.frame) + " (t = " +
+                    std::to_string(ctx.time) + " s) under " + std::string(integratorName(net.integrator)) +
+                    ": its state became non-finite or faster than 10 km/s, so it is frozen from here on. "
+                    "Remedy: a smaller step (--set scene.dt=" +
+                    std::to_string(ctx.dt / 4) +
+                    ", or more scene.substeps) or integrator = \"implicit_euler\"");
+            }
+        });
 }
 
 void registerSpringSystem(Catalog& catalog) {
     catalog.addComponent({"springs", loadSprings});
-    catalog.addState<SpringNetwork>("springs", dumpSprings, hashSprings);
+    catalog.addComponent({"rope", loadRope});
+    catalog.addComponent({"cloth", loadCloth});
+    catalog.addComponent({"softbody", loadSoftBody});
+    catalog.addState(StateCodec{
+        "springs", hasSprings,
+        [](const World& w, Entity e, JsonWriter& out) { dumpNetwork(w.get<SpringNetwork>(e), out); },
+        [](const World& w, Entity e, Hasher& h) {
+            hashNetwork(w.get<SpringNetwork>(e), h);
+            // implicit Euler's warm start shapes the next step, so it is state too
+            if (const auto* work = w.tryGet<SpringWorkspace>(e)) {
+                h.add(work->dv);
+            }
+        }});
 
     // impulse: a momentum change J shared by the free masses (each gets dv = J / their total mass)
-    catalog.addEventAction({"impulse",
-                            "a spring network",
-                            {"value"},
-                            hasSprings,
-                            needsVector,
-                            [](World& w, Entity e, const EventDef& ev) {
-                                auto& net = w.get<SpringNetwork>(e);
-                                double total = 0.0;
-                                for (std::size_t i = 0; i < net.invMass.size(); ++i) {
-                                    total += net.pinned[i] ? 0.0 : 1.0 / net.invMass[i];
-                                }
-                                if (total <= 0.0) {
-                                    return;
-                                }
-                                const Vec3 dv = Vec3{ev.value[0], ev.value[1], ev.value[2]} * (1.0 / total);
-                                for (std::size_t i = 0; i < net.v.size(); ++i) {
-                                    if (!net.pinned[i]) {
-                                        net.v[i] += dv;
-                                    }
-                                }
-                            }});
-    catalog.addEventAction({"set_velocity",
-                            "a spring network",
-                            {"value"},
-                            hasSprings,
-                            needsVector,
-                            [](World& w, Entity e, const EventDef& ev) {
-                                auto& net = w.get<SpringNetwork>(e);
-                                for (std::size_t i = 0; i < net.v.size(); ++i) {
-                                    if (!net.pinned[i]) {
-                                        net.v[i] = {ev.value[0], ev.value[1], ev.value[2]};
-                                    }
-                                }
-                            }});
-    catalog.addEventAction({"pin",
-                            "a spring network",
-                            {"value"},
-                            hasSprings,
-                            needsIndices,
-                            [](World& w, Entity e, const EventDef& ev) {
-                                auto& net = w.get<SpringNetwork>(e);
-                                for (double d : ev.value) {
-                                    const auto i = static_cast<std::size_t>(d);
-                                    net.pinned[i] = 1;
-                                    net.v[i] = {};
-                                }
-                            }});
-    catalog.addEventAction({"unpin",
-                            "a spring network",
-                            {"value"},
-                            hasSprings,
-                            needsIndices,
-                            [](World& w, Entity e, const EventDef& ev) {
-                                auto& net = w.get<SpringNetwork>(e);
-                                for (double d : ev.value) {
-                                    net.pinned[static_cast<std::size_t>(d)] = 0;
-                                }
-                            }});
+    addNetworkAction(catalog, "impulse", needsVector, [](SpringNetwork& net, const EventDef& ev) {
+        double total = 0.0;
+        for (std::size_t i = 0; i < net.invMass.size(); ++i) {
+            total += net.pinned[i] ? 0.0 : 1.0 / net.invMass[i];
+        }
+        if (total <= 0.0) {
+            return;
+        }
+        const Vec3 dv = Vec3{ev.value[0], ev.value[1], ev.value[2]} * (1.0 / total);
+        for (std::size_t i = 0; i < net.v.size(); ++i) {
+            if (!net.pinned[i]) {
+                net.v[i] += dv;
+            }
+        }
+    });
+    addNetworkAction(catalog, "set_velocity", needsVector, [](SpringNetwork& net, const EventDef& ev) {
+        for (std::size_t i = 0; i < net.v.size(); ++i) {
+            if (!net.pinned[i]) {
+                net.v[i] = {ev.value[0], ev.value[1], ev.value[2]};
+            }
+        }
+    });
+    addNetworkAction(catalog, "pin", needsIndices, [](SpringNetwork& net, const EventDef& ev) {
+        for (double d : ev.value) {
+            net.pinned[static_cast<std::size_t>(d)] = 1;
+            net.v[static_cast<std::size_t>(d)] = {};
+        }
+    });
+    addNetworkAction(catalog, "unpin", needsIndices, [](SpringNetwork& net, const EventDef& ev) {
+        for (double d : ev.value) {
+            net.pinned[static_cast<std::size_t>(d)] = 0;
+        }
+    });
     catalog.addSystem(Phase::Fixed, "springs", integrateSprings);
 }
 

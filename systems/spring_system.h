@@ -1,13 +1,13 @@
 #pragma once
-// The spring system: advances every SpringNetwork by one fixed step.
-// Reads: SceneDef (resource: gravity). Writes: SpringNetwork x, v. Phase: fixed.
+// The spring system: advances every spring network by one fixed step with its own integrator
+// (spring_integrators.h), then checks it: a network whose state turns non-finite or faster than 10 km/s
+// has blown up; it is frozen where it is, the run report names the entity, frame, integrator and a remedy,
+// and the rest of the scene runs on.
+// Reads: SceneDef (gravity), ForceField. Writes: SpringNetwork, SpringWorkspace, RunReport. Phase: fixed.
 //
-// Forces: gravity, Hooke springs F = -k (|L| - R) L/|L| with damping kd along the spring on the relative
-// velocity, and global drag -drag v.
-// Integrator: symplectic (semi-implicit) Euler, v += dt F/m, then x += dt v. First order, but it conserves
-// a nearby energy, so an undamped spring oscillates with bounded energy error instead of gaining energy as
-// explicit Euler does; stable while dt < 2/omega for the stiffest spring. The other integrators of the
-// scenario format arrive with the mass-spring work.
+// It also registers the network builders' scenario keys: `springs` (masses and links given), `rope`,
+// `cloth` and `softbody` (spring_builders.h), the dump and hash of a network, and the events impulse,
+// set_velocity, pin and unpin.
 
 #include "components/spring_network.h"
 #include "engine/catalog.h"
@@ -19,7 +19,7 @@ namespace tumble {
 /// One fixed step of every spring network.
 void integrateSprings(World& world, const StepContext& ctx);
 
-/// Registers the `springs` component, its dump and hash, its events and the system.
+/// Registers the spring network components, their dump and hash, their events and the system.
 void registerSpringSystem(Catalog& catalog);
 
 } // namespace tumble

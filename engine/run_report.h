@@ -1,0 +1,16 @@
+#pragma once
+// Problems a run meets after it has started (a spring network that blew up, say). Systems append a
+// message and carry on; the command line prints each one as it appears and exits 1 at the end of a run
+// that had any.
+
+#include <string>
+#include <vector>
+
+namespace tumble {
+
+/// A world resource: what went wrong during the run, in the order it happened.
+struct RunReport {
+    std::vector<std::string> failures;
+};
+
+} // namespace tumble

@@ -1,0 +1,88 @@
+#include "systems/block_sparse.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace tumble {
+
+Mat3 Mat3::inverse() const {
+    const auto& a = m;
+    Mat3 r;
+    r.m[0] = a[4] * a[8] - a[5] * a[7];
+    r.m[1] = a[2] * a[7] - a[1] * a[8];
+    r.m[2] = a[1] * a[5] - a[2] * a[4];
+    r.m[3] = a[5] * a[6] - a[3] * a[8];
+    r.m[4] = a[0] * a[8] - a[2] * a[6];
+    r.m[5] = a[2] * a[3] - a[0] * a[5];
+    r.m[6] = a[3] * a[7] - a[4] * a[6];
+    r.m[7] = a[1] * a[6] - a[0] * a[7];
+    r.m[8] = a[0] * a[4] - a[1] * a[3];
+    const double det = a[0] * r.m[0] + a[1] * r.m[3] + a[2] * r.m[6];
+    const double inv = 1.0 / det;
+    for (double& x : r.m) {
+        x *= inv;
+    }
+    return r;
+}
+
+BlockMatrix BlockMatrix::fromPairs(std::uint32_t n,
+                                   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs) {
+    // both orientations and the diagonal, sorted and unique: a deterministic pattern
+    const std::size_t given = pairs.size();
+    pairs.reserve(2 * given + n);
+    for (std::size_t k = 0; k < given; ++k) {
+        pairs.emplace_back(pairs[k].second, pairs[k].first);
+    }
+    for (std::uint32_t i = 0; i < n; ++i) {
+        pairs.emplace_back(i, i);
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+
+    BlockMatrix a;
+    a.n = n;
+    a.rowStart.assign(std::size_t(n) + 1, 0);
+    a.col.reserve(pairs.size());
+    a.diag.assign(n, 0);
+    for (const auto& [i, j] : pairs) {
+        if (i >= n || j >= n) {
+            throw std::out_of_range("block pattern: index beyond the matrix");
+        }
+        ++a.rowStart[std::size_t(i) + 1];
+        if (i == j) {
+            a.diag[i] = static_cast<std::uint32_t>(a.col.size());
+        }
+        a.col.push_back(j);
+    }
+    for (std::uint32_t i = 0; i < n; ++i) {
+        a.rowStart[std::size_t(i) + 1] += a.rowStart[i];
+    }
+    a.val.assign(a.col.size(), Mat3{});
+    return a;
+}
+
+std::uint32_t BlockMatrix::find(std::uint32_t i, std::uint32_t j) const {
+    const auto first = col.begin() + rowStart[i], last = col.begin() + rowStart[std::size_t(i) + 1];
+    const auto it = std::lower_bound(first, last, j);
+    if (it == last || *it != j) {
+        throw std::out_of_range("block pattern: no block at the requested position");
+    }
+    return static_cast<std::uint32_t>(it - col.begin());
+}
+
+void BlockMatrix::setZero() {
+    std::fill(val.begin(), val.end(), Mat3{});
+}
+
+void BlockMatrix::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) const {
+    y.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        Vec3 sum;
+        for (std::uint32_t b = rowStart[i]; b < rowStart[std::size_t(i) + 1]; ++b) {
+            sum += val[b] * x[col[b]];
+        }
+        y[i] = sum;
+    }
+}
+
+} // namespace tumble

@@ -1,0 +1,155 @@
+#include "systems/collision_system.h"
+
+#include "components/spring_network.h"
+#include "components/transform.h"
+#include "engine/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tumble {
+
+namespace {
+
+constexpr double kHuge = 1e9;
+
+/// Distance and normal of a point relative to an axis-aligned box of half extents h centred at 0.
+double boxDistance(const Vec3& d, const Vec3& h, Vec3& normal) {
+    const double q[3] = {std::abs(d.x) - h.x, std::abs(d.y) - h.y, std::abs(d.z) - h.z};
+    const double sign[3] = {d.x < 0 ? -1.0 : 1.0, d.y < 0 ? -1.0 : 1.0, d.z < 0 ? -1.0 : 1.0};
+    const Vec3 outside{std::max(q[0], 0.0) * sign[0], std::max(q[1], 0.0) * sign[1],
+                       std::max(q[2], 0.0) * sign[2]};
+    const double out = length(outside);
+    if (out > 0.0) {
+        normal = outside * (1.0 / out);
+        return out;
+    }
+    // inside: out through the nearest face
+    const int axis = q[0] >= q[1] && q[0] >= q[2] ? 0 : q[1] >= q[2] ? 1 : 2;
+    normal = Vec3{axis == 0 ? sign[0] : 0.0, axis == 1 ? sign[1] : 0.0, axis == 2 ? sign[2] : 0.0};
+    return q[axis];
+}
+
+void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    RigidBody b;
+    const std::string shape =
+        r.choice("shape", "box", {"plane", "box", "sphere", "capsule", "cylinder", "convex", "mesh"});
+    if (shape == "convex" || shape == "mesh") {
+        r.fail("shape", "shape '" + shape + "' needs the rigid-body bridge, which is not in this build yet");
+    }
+    b.shape = shape == "plane"     ? ShapeKind::Plane
+              : shape == "box"     ? ShapeKind::Box
+              : shape == "sphere"  ? ShapeKind::Sphere
+              : shape == "capsule" ? ShapeKind::Capsule
+                                   : ShapeKind::Cylinder;
+    if (b.shape == ShapeKind::Plane) {
+        const auto n = r.vector<3>("normal", {0.0, 1.0, 0.0}, -kHuge, kHuge);
+        const Vec3 normal{n[0], n[1], n[2]};
+        if (length(normal) < 1e-12) {
+            r.fail("normal", "'normal' of a plane must not be zero");
+        }
+        b.normal = normal * (1.0 / length(normal));
+    }
+    if (b.shape == ShapeKind::Box) {
+        const auto h = r.vector<3>("half_extents", {0.5, 0.5, 0.5}, 1e-6, kHuge);
+        b.halfExtents = {h[0], h[1], h[2]};
+    }
+    if (b.shape == ShapeKind::Sphere || b.shape == ShapeKind::Capsule || b.shape == ShapeKind::Cylinder) {
+        b.radius = r.number("radius", 0.5, 1e-6, kHuge);
+    }
+    if (b.shape == ShapeKind::Capsule || b.shape == ShapeKind::Cylinder) {
+        b.height = r.number("height", 1.0, 0.0, kHuge);
+    }
+    b.mass = r.number("mass", 0.0, 0.0, 1e9);
+    if (b.mass > 0.0) {
+        r.fail("mass",
+               "dynamic rigid bodies (mass > 0) need the Bullet bridge, which is not in this build yet; "
+               "mass = 0 makes a static collider");
+    }
+    b.friction = r.number("friction", 0.6, 0.0, 100.0);
+    b.restitution = r.number("restitution", 0.0, 0.0, 1.0);
+    b.position = world.get<Transform>(entity).position;
+    world.emplace<RigidBody>(entity, b);
+}
+
+} // namespace
+
+double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal) {
+    const Vec3 d = p - body.position;
+    switch (body.shape) {
+    case ShapeKind::Plane:
+        normal = body.normal;
+        return dot(d, body.normal);
+    case ShapeKind::Sphere: {
+        const double len = length(d);
+        normal = len > 1e-12 ? d * (1.0 / len) : Vec3{0.0, 1.0, 0.0};
+        return len - body.radius;
+    }
+    case ShapeKind::Box:
+        return boxDistance(d, body.halfExtents, normal);
+    case ShapeKind::Capsule: {
+        // closest point on the axis segment, then a sphere about it
+        const double half = 0.5 * body.height;
+        const Vec3 axisPoint{0.0, std::clamp(d.y, -half, half), 0.0};
+        const Vec3 e = d - axisPoint;
+        const double len = length(e);
+        normal = len > 1e-12 ? e * (1.0 / len) : Vec3{1.0, 0.0, 0.0};
+        return len - body.radius;
+    }
+    case ShapeKind::Cylinder: {
+        // a box in (radial, y) coordinates
+        const double radial = std::sqrt(d.x * d.x + d.z * d.z);
+        const Vec3 outward = radial > 1e-12 ? Vec3{d.x / radial, 0.0, d.z / radial} : Vec3{1.0, 0.0, 0.0};
+        Vec3 n2;
+        const double dist = boxDistance({radial, d.y, 0.0}, {body.radius, 0.5 * body.height, 1.0}, n2);
+        normal = outward * n2.x + Vec3{0.0, n2.y, 0.0};
+        return dist;
+    }
+    }
+    return 1e300;
+}
+
+void collideSprings(World& world, const StepContext&) {
+    const Pool<RigidBody>* bodies = world.findPool<RigidBody>();
+    if (!bodies || bodies->size() == 0) {
+        return;
+    }
+    world.view<SpringNetwork>().each([&](Entity, SpringNetwork& net) {
+        if (net.frozen) {
+            return;
+        }
+        for (const RigidBody& body : bodies->values()) {
+            if (body.mass > 0.0) {
+                continue;
+            }
+            const double mu = std::sqrt(body.friction * net.friction); // combined as Bullet does
+            for (std::size_t i = 0; i < net.x.size(); ++i) {
+                if (net.pinned[i]) {
+                    continue;
+                }
+                Vec3 n;
+                const double d = signedDistance(body, net.x[i], n);
+                if (d >= net.thickness) {
+                    continue;
+                }
+                net.x[i] += n * (net.thickness - d);
+                const double vn = dot(net.v[i], n);
+                if (vn >= 0.0) {
+                    continue; // already leaving the surface
+                }
+                Vec3 vt = net.v[i] - n * vn;
+                const double speed = length(vt);
+                const double slowdown = mu * -vn;
+                vt = speed <= slowdown ? Vec3{} : vt * (1.0 - slowdown / speed);
+                net.v[i] = vt - n * (vn * body.restitution);
+            }
+        }
+    });
+}
+
+void registerCollisionSystem(Catalog& catalog) {
+    catalog.addComponent({"rigid_body", loadRigidBody});
+    catalog.addSystem(Phase::Fixed, "collisions", collideSprings);
+}
+
+} // namespace tumble

@@ -1,0 +1,35 @@
+#pragma once
+// Force fields: the `force_field` component's loader, the system that updates each field once per fixed
+// step (wind gusts), and the forces a field exerts, which the spring and particle systems share.
+// System: reads ForceField, Transform; writes ForceField::current, origin. Phase: fixed, first.
+//
+// - wind: air moving at `strength` (m/s), varied by gusts: |w| scales by 1 + gust g(t), g a smooth sum of
+//   three sines whose phases come from the scene seed. A point mass feels coefficient (w - v); a cloth
+//   triangle feels coefficient * area * ((w - v) . n) n, so a curtain billows.
+// - drag: -strength.x v.
+// - vortex: air turning about `axis` through the field's position at strength.x rad/s; a mass feels
+//   coefficient (u - v) with u = omega axis x r, within `radius` (0 = everywhere).
+// - point: an attractor pulling strength.x * m / d^2 (softened within 0.1 m), within `radius`.
+
+#include "components/force_field.h"
+#include "engine/catalog.h"
+#include "engine/step_context.h"
+#include "engine/world.h"
+
+#include <vector>
+
+namespace tumble {
+
+/// Updates every field's current wind and origin for this step.
+void updateForceFields(World& world, const StepContext& ctx);
+
+/// Force of a field on a point mass at x moving at v, N.
+Vec3 fieldForce(const ForceField& field, const Vec3& x, const Vec3& v, double mass);
+
+/// The damping a field adds around x: the c in dF/dv = -c I (for implicit integration), N s/m.
+double fieldDamping(const ForceField& field, const Vec3& x);
+
+/// Registers the `force_field` component and the system.
+void registerForceFieldSystem(Catalog& catalog);
+
+} // namespace tumble

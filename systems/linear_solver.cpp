@@ -1,0 +1,312 @@
+#include "systems/linear_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace tumble {
+
+namespace {
+
+constexpr std::uint32_t kCoarsestRows = 24; // solved by dense Cholesky (72 x 72 at most)
+constexpr std::size_t kMaxLevels = 32;
+
+/// Coupling strength of each stored block: the off-diagonal blocks of these matrices are -(h kd uu^T + h^2 K)
+/// sums, so minus their trace measures how strongly two rows pull on each other.
+std::vector<double> strengths(const BlockMatrix& a) {
+    std::vector<double> s(a.val.size(), 0.0);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
+            s[b] = a.col[b] == i ? 0.0 : std::max(0.0, -a.val[b].trace());
+        }
+    }
+    return s;
+}
+
+/// Greedy pairwise matching in row order: each unmatched row joins its strongest unmatched neighbour.
+std::uint32_t matchPairs(const BlockMatrix& pattern, const std::vector<double>& strength,
+                         std::vector<std::uint32_t>& group) {
+    constexpr std::uint32_t kNone = 0xffffffffu;
+    group.assign(pattern.n, kNone);
+    std::uint32_t count = 0;
+    for (std::uint32_t i = 0; i < pattern.n; ++i) {
+        if (group[i] != kNone) {
+            continue;
+        }
+        std::uint32_t best = kNone;
+        double bestStrength = 0.0;
+        for (std::uint32_t b = pattern.rowStart[i]; b < pattern.rowStart[std::size_t(i) + 1]; ++b) {
+            const std::uint32_t j = pattern.col[b];
+            if (j != i && group[j] == kNone && strength[b] > bestStrength) {
+                best = j;
+                bestStrength = strength[b];
+            }
+        }
+        group[i] = count;
+        if (best != kNone) {
+            group[best] = count;
+        }
+        ++count;
+    }
+    return count;
+}
+
+/// The pattern of the matrix coarsened by a grouping, and where each fine block sums into.
+BlockMatrix coarsePattern(const BlockMatrix& fine, const std::vector<std::uint32_t>& group,
+                          std::uint32_t count, std::vector<std::uint32_t>& blockSlot) {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    pairs.reserve(fine.col.size());
+    for (std::uint32_t i = 0; i < fine.n; ++i) {
+        for (std::uint32_t b = fine.rowStart[i]; b < fine.rowStart[std::size_t(i) + 1]; ++b) {
+            pairs.emplace_back(group[i], group[fine.col[b]]);
+        }
+    }
+    BlockMatrix coarse = BlockMatrix::fromPairs(count, std::move(pairs));
+    blockSlot.resize(fine.col.size());
+    for (std::uint32_t i = 0; i < fine.n; ++i) {
+        for (std::uint32_t b = fine.rowStart[i]; b < fine.rowStart[std::size_t(i) + 1]; ++b) {
+            blockSlot[b] = coarse.find(group[i], group[fine.col[b]]);
+        }
+    }
+    return coarse;
+}
+
+void galerkin(const BlockMatrix& fine, const std::vector<std::uint32_t>& blockSlot, BlockMatrix& coarse) {
+    coarse.setZero();
+    for (std::size_t b = 0; b < fine.val.size(); ++b) {
+        coarse.val[blockSlot[b]] += fine.val[b];
+    }
+}
+
+void invertDiagonal(const BlockMatrix& a, std::vector<Mat3>& out) {
+    out.resize(a.n);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        out[i] = a.val[a.diag[i]].inverse();
+    }
+}
+
+double dot(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+    double s = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        s += tumble::dot(a[i], b[i]);
+    }
+    return s;
+}
+
+void filter(std::vector<Vec3>& v, const std::vector<std::uint8_t>& fixed) {
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        if (fixed[i]) {
+            v[i] = Vec3{};
+        }
+    }
+}
+
+} // namespace
+
+void AggregationMultigrid::build(const BlockMatrix& fine) {
+    m_levels.clear();
+    m_levels.reserve(kMaxLevels);
+    const BlockMatrix* current = &fine;
+    while (current->n > kCoarsestRows && m_levels.size() < kMaxLevels) {
+        // double pairwise matching: pairs of rows, then pairs of those pairs
+        std::vector<std::uint32_t> first, second, unused;
+        const std::uint32_t n1 = matchPairs(*current, strengths(*current), first);
+        BlockMatrix middle = coarsePattern(*current, first, n1, unused);
+        galerkin(*current, unused, middle);
+        const std::uint32_t n2 = matchPairs(middle, strengths(middle), second);
+        if (n2 * 5 > current->n * 4) {
+            break; // coarsening stalled (a graph with few couplings): solve what is left directly
+        }
+        Level level;
+        level.group.resize(current->n);
+        for (std::uint32_t i = 0; i < current->n; ++i) {
+            level.group[i] = second[first[i]];
+        }
+        level.a = coarsePattern(*current, level.group, n2, level.blockSlot);
+        galerkin(*current, level.blockSlot, level.a);
+        m_levels.push_back(std::move(level));
+        current = &m_levels.back().a;
+    }
+    m_built = true;
+}
+
+void AggregationMultigrid::update(const BlockMatrix& a) {
+    m_fine = &a;
+    if (!m_built) {
+        build(a);
+    } else {
+        const BlockMatrix* finer = &a;
+        for (Level& level : m_levels) {
+            galerkin(*finer, level.blockSlot, level.a);
+            finer = &level.a;
+        }
+    }
+    invertDiagonal(a, m_fineDiagInverse);
+    for (Level& level : m_levels) {
+        invertDiagonal(level.a, level.diagInverse);
+    }
+    factorCoarsest();
+}
+
+void AggregationMultigrid::factorCoarsest() {
+    const BlockMatrix& c = m_levels.empty() ? *m_fine : m_levels.back().a;
+    const std::size_t d = 3 * std::size_t(c.n);
+    m_coarsestDim = d;
+    m_cholesky.assign(d * d, 0.0);
+    for (std::uint32_t i = 0; i < c.n; ++i) {
+        for (std::uint32_t b = c.rowStart[i]; b < c.rowStart[std::size_t(i) + 1]; ++b) {
+            for (std::size_t r = 0; r < 3; ++r) {
+                for (std::size_t k = 0; k < 3; ++k) {
+                    m_cholesky[(3 * i + r) * d + 3 * c.col[b] + k] = c.val[b].m[3 * r + k];
+                }
+            }
+        }
+    }
+    // in-place lower Cholesky; the operator is SPD by construction
+    for (std::size_t j = 0; j < d; ++j) {
+        double diag = m_cholesky[j * d + j];
+        for (std::size_t k = 0; k < j; ++k) {
+            diag -= m_cholesky[j * d + k] * m_cholesky[j * d + k];
+        }
+        if (!(diag > 0.0)) {
+            throw std::runtime_error("implicit solver: the system matrix is not positive definite");
+        }
+        const double ljj = std::sqrt(diag);
+        m_cholesky[j * d + j] = ljj;
+        for (std::size_t i = j + 1; i < d; ++i) {
+            double s = m_cholesky[i * d + j];
+            for (std::size_t k = 0; k < j; ++k) {
+                s -= m_cholesky[i * d + k] * m_cholesky[j * d + k];
+            }
+            m_cholesky[i * d + j] = s / ljj;
+        }
+    }
+}
+
+void AggregationMultigrid::solveCoarsest(const std::vector<Vec3>& b, std::vector<Vec3>& x) const {
+    const std::size_t d = m_coarsestDim;
+    std::vector<double>& y = m_coarseWork;
+    y.resize(d);
+    for (std::size_t i = 0; i < d; ++i) {
+        const Vec3& bi = b[i / 3];
+        double s = (i % 3 == 0) ? bi.x : (i % 3 == 1) ? bi.y : bi.z;
+        for (std::size_t k = 0; k < i; ++k) {
+            s -= m_cholesky[i * d + k] * y[k];
+        }
+        y[i] = s / m_cholesky[i * d + i];
+    }
+    for (std::size_t ii = d; ii-- > 0;) {
+        double s = y[ii];
+        for (std::size_t k = ii + 1; k < d; ++k) {
+            s -= m_cholesky[k * d + ii] * y[k];
+        }
+        y[ii] = s / m_cholesky[ii * d + ii];
+    }
+    x.resize(d / 3);
+    for (std::size_t i = 0; i < d / 3; ++i) {
+        x[i] = {y[3 * i], y[3 * i + 1], y[3 * i + 2]};
+    }
+}
+
+void AggregationMultigrid::smooth(const BlockMatrix& a, const std::vector<Mat3>& dinv,
+                                  const std::vector<Vec3>& b, std::vector<Vec3>& x, bool forward) const {
+    for (std::uint32_t k = 0; k < a.n; ++k) {
+        const std::uint32_t i = forward ? k : a.n - 1 - k;
+        Vec3 s = b[i];
+        for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[std::size_t(i) + 1]; ++bl) {
+            if (a.col[bl] != i) {
+                s -= a.val[bl] * x[a.col[bl]];
+            }
+        }
+        x[i] = dinv[i] * s;
+    }
+}
+
+void AggregationMultigrid::cycle(std::size_t level, const std::vector<Vec3>& b, std::vector<Vec3>& x) {
+    if (level == m_levels.size()) {
+        solveCoarsest(b, x);
+        return;
+    }
+    const BlockMatrix& a = level == 0 ? *m_fine : m_levels[level - 1].a;
+    const std::vector<Mat3>& dinv = level == 0 ? m_fineDiagInverse : m_levels[level - 1].diagInverse;
+    std::vector<Vec3>& r = level == 0 ? m_fineResidual : m_levels[level - 1].r;
+    Level& next = m_levels[level];
+
+    x.assign(a.n, Vec3{});
+    smooth(a, dinv, b, x, true);
+    a.multiply(x, r);
+    next.b.assign(next.a.n, Vec3{});
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        next.b[next.group[i]] += b[i] - r[i];
+    }
+    cycle(level + 1, next.b, next.x);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        x[i] += next.x[next.group[i]];
+    }
+    smooth(a, dinv, b, x, false);
+}
+
+void AggregationMultigrid::apply(const std::vector<Vec3>& r, std::vector<Vec3>& z) {
+    cycle(0, r, z);
+}
+
+SolveStats solvePcg(const BlockMatrix& a, const std::vector<Vec3>& b, std::vector<Vec3>& x,
+                    AggregationMultigrid& preconditioner, const std::vector<std::uint8_t>& fixed, double tol,
+                    int maxIterations, PcgVectors& work) {
+    SolveStats stats;
+    const std::size_t n = a.n;
+    x.resize(n);
+    filter(x, fixed);
+    const double bnorm = std::sqrt(dot(b, b));
+    if (bnorm == 0.0) {
+        std::fill(x.begin(), x.end(), Vec3{});
+        stats.converged = true;
+        return stats;
+    }
+    auto& [r, z, p, ap] = work;
+    r.resize(n);
+    z.resize(n);
+    p.resize(n);
+    ap.resize(n);
+    a.multiply(x, ap);
+    for (std::size_t i = 0; i < n; ++i) {
+        r[i] = b[i] - ap[i];
+    }
+    filter(r, fixed);
+    double rnorm = std::sqrt(dot(r, r));
+    preconditioner.apply(r, z);
+    filter(z, fixed);
+    p = z;
+    double rz = dot(r, z);
+    while (rnorm > tol * bnorm && stats.iterations < maxIterations) {
+        a.multiply(p, ap);
+        filter(ap, fixed);
+        const double pap = dot(p, ap);
+        if (!(pap > 0.0)) {
+            break; // lost positive definiteness to round-off: keep what we have
+        }
+        const double alpha = rz / pap;
+        for (std::size_t i = 0; i < n; ++i) {
+            x[i] += p[i] * alpha;
+            r[i] -= ap[i] * alpha;
+        }
+        ++stats.iterations;
+        rnorm = std::sqrt(dot(r, r));
+        if (rnorm <= tol * bnorm) {
+            break;
+        }
+        preconditioner.apply(r, z);
+        filter(z, fixed);
+        const double rzNext = dot(r, z);
+        const double beta = rzNext / rz;
+        rz = rzNext;
+        for (std::size_t i = 0; i < n; ++i) {
+            p[i] = z[i] + p[i] * beta;
+        }
+    }
+    stats.relativeResidual = rnorm / bnorm;
+    stats.converged = rnorm <= tol * bnorm;
+    return stats;
+}
+
+} // namespace tumble

@@ -1,0 +1,169 @@
+#include "systems/spring_builders.h"
+
+#include <string>
+
+namespace tumble {
+
+namespace {
+
+void addLink(SpringNetwork& net, std::uint32_t a, std::uint32_t b, double k, double kd) {
+    net.links.push_back({a, b, length(net.x[b] - net.x[a]), k, kd});
+}
+
+void addMasses(SpringNetwork& net, std::size_t n, double totalMass) {
+    net.v.assign(n, Vec3{});
+    net.invMass.assign(n, static_cast<double>(n) / totalMass);
+    net.pinned.assign(n, 0);
+}
+
+} // namespace
+
+void pinMasses(SpringNetwork& net, const std::vector<std::uint32_t>& pins) {
+    for (std::uint32_t i : pins) {
+        net.pinned[i] = 1;
+    }
+}
+
+SpringNetwork buildRope(const RopeDef& def) {
+    SpringNetwork net;
+    net.kind = NetworkKind::Rope;
+    const auto n = static_cast<std::uint32_t>(def.segments + 1);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        net.x.push_back(def.origin + def.direction * (def.length * i / def.segments));
+    }
+    addMasses(net, n, def.mass);
+    for (std::uint32_t i = 0; i + 1 < n; ++i) {
+        addLink(net, i, i + 1, def.stiffness, def.damping);
+    }
+    if (def.bend > 0.0) {
+        for (std::uint32_t i = 0; i + 2 < n; ++i) {
+            addLink(net, i, i + 2, def.bend, def.damping);
+        }
+    }
+    net.grid = {n, 1, 1};
+    pinMasses(net, def.pins);
+    return net;
+}
+
+SpringNetwork buildCloth(const ClothDef& def) {
+    SpringNetwork net;
+    net.kind = NetworkKind::Cloth;
+    const auto rows = static_cast<std::uint32_t>(def.rows), cols = static_cast<std::uint32_t>(def.cols);
+    auto at = [cols](std::uint32_t r, std::uint32_t c) { return r * cols + c; };
+    for (std::uint32_t r = 0; r < rows; ++r) {
+        for (std::uint32_t c = 0; c < cols; ++c) {
+            const double u = static_cast<double>(c) / (cols - 1) - 0.5;
+            const double w = static_cast<double>(r) / (rows - 1) - 0.5;
+            net.x.push_back(def.vertical ? def.centre + Vec3{u * def.size[0], -w * def.size[1], 0.0}
+                                         : def.centre + Vec3{u * def.size[0], 0.0, w * def.size[1]});
+        }
+    }
+    addMasses(net, std::size_t(rows) * cols, def.mass);
+    for (std::uint32_t r = 0; r < rows; ++r) {
+        for (std::uint32_t c = 0; c < cols; ++c) {
+            // stretch: right and down; shear: both diagonals of the quad; bend: two right and two down
+            if (c + 1 < cols) {
+                addLink(net, at(r, c), at(r, c + 1), def.stretch, def.damping);
+            }
+            if (r + 1 < rows) {
+                addLink(net, at(r, c), at(r + 1, c), def.stretch, def.damping);
+            }
+            if (r + 1 < rows && c + 1 < cols) {
+                addLink(net, at(r, c), at(r + 1, c + 1), def.shear, def.damping);
+                addLink(net, at(r, c + 1), at(r + 1, c), def.shear, def.damping);
+                // two triangles per quad, counter-clockwise seen from +z ("xy") or +y ("xz")
+                if (def.vertical) {
+                    net.triangles.push_back({at(r, c), at(r + 1, c), at(r + 1, c + 1)});
+                    net.triangles.push_back({at(r, c), at(r + 1, c + 1), at(r, c + 1)});
+                } else {
+                    net.triangles.push_back({at(r, c), at(r + 1, c + 1), at(r + 1, c)});
+                    net.triangles.push_back({at(r, c), at(r, c + 1), at(r + 1, c + 1)});
+                }
+            }
+            if (def.bend > 0.0 && c + 2 < cols) {
+                addLink(net, at(r, c), at(r, c + 2), def.bend, def.damping);
+            }
+            if (def.bend > 0.0 && r + 2 < rows) {
+                addLink(net, at(r, c), at(r + 2, c), def.bend, def.damping);
+            }
+        }
+    }
+    net.grid = {rows, cols, 1};
+    pinMasses(net, def.pins);
+    return net;
+}
+
+SpringNetwork buildSoftBody(const SoftBodyDef& def) {
+    SpringNetwork net;
+    net.kind = NetworkKind::SoftBody;
+    const auto [nx, ny, nz] = def.resolution;
+    auto at = [&](int i, int j, int k) { return static_cast<std::uint32_t>((k * ny + j) * nx + i); };
+    for (int k = 0; k < nz; ++k) {
+        for (int j = 0; j < ny; ++j) {
+            for (int i = 0; i < nx; ++i) {
+                net.x.push_back(def.centre + Vec3{(double(i) / (nx - 1) - 0.5) * def.size[0],
+                                                  (double(j) / (ny - 1) - 0.5) * def.size[1],
+                                                  (double(k) / (nz - 1) - 0.5) * def.size[2]});
+            }
+        }
+    }
+    addMasses(net, std::size_t(nx) * ny * nz, def.mass);
+    auto inside = [&](int i, int j, int k) {
+        return i >= 0 && j >= 0 && k >= 0 && i < nx && j < ny && k < nz;
+    };
+    // neighbour offsets, each undirected pair once: 3 axes, 6 face diagonals, 4 body diagonals
+    static const int kStructural[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    static const int kShear[10][3] = {{1, 1, 0},  {1, -1, 0}, {1, 0, 1},  {1, 0, -1}, {0, 1, 1},
+                                      {0, 1, -1}, {1, 1, 1},  {1, 1, -1}, {1, -1, 1}, {1, -1, -1}};
+    for (int k = 0; k < nz; ++k) {
+        for (int j = 0; j < ny; ++j) {
+            for (int i = 0; i < nx; ++i) {
+                for (const auto& o : kStructural) {
+                    if (inside(i + o[0], j + o[1], k + o[2])) {
+                        addLink(net, at(i, j, k), at(i + o[0], j + o[1], k + o[2]), def.stiffness,
+                                def.damping);
+                    }
+                    if (def.bend > 0.0 && inside(i + 2 * o[0], j + 2 * o[1], k + 2 * o[2])) {
+                        addLink(net, at(i, j, k), at(i + 2 * o[0], j + 2 * o[1], k + 2 * o[2]), def.bend,
+                                def.damping);
+                    }
+                }
+                for (const auto& o : kShear) {
+                    if (def.shear > 0.0 && inside(i + o[0], j + o[1], k + o[2])) {
+                        addLink(net, at(i, j, k), at(i + o[0], j + o[1], k + o[2]), def.shear, def.damping);
+                    }
+                }
+            }
+        }
+    }
+    net.grid = {static_cast<std::uint32_t>(nx), static_cast<std::uint32_t>(ny),
+                static_cast<std::uint32_t>(nz)};
+    pinMasses(net, def.pins);
+    return net;
+}
+
+bool clothPinPreset(const std::string& preset, int rows, int cols, std::vector<std::uint32_t>& out) {
+    const auto r = static_cast<std::uint32_t>(rows), c = static_cast<std::uint32_t>(cols);
+    out.clear();
+    if (preset == "none") {
+        return true;
+    }
+    if (preset == "top-corners") {
+        out = {0, c - 1};
+    } else if (preset == "corners") {
+        out = {0, c - 1, (r - 1) * c, r * c - 1};
+    } else if (preset == "top-row") {
+        for (std::uint32_t i = 0; i < c; ++i) {
+            out.push_back(i);
+        }
+    } else if (preset == "left-edge") {
+        for (std::uint32_t i = 0; i < r; ++i) {
+            out.push_back(i * c);
+        }
+    } else {
+        return false;
+    }
+    return true;
+}
+
+} // namespace tumble

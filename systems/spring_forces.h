@@ -1,0 +1,39 @@
+#pragma once
+// The forces on a spring network and their Jacobians.
+//
+// Spring between masses a and b, with d = x_b - x_a, l = |d|, u = d / l:
+//   F_a = k (l - R) u + kd ((v_b - v_a) . u) u,   F_b = -F_a
+//   dF_a/dx_a = -K,  K = k [ u u^T + max(0, 1 - R/l) (I - u u^T) ]
+//   dF_a/dv_a = -kd u u^T
+// The max(0, .) drops the transverse term of a compressed spring, whose true value is negative and would
+// make the system matrix indefinite (Choi & Ko 2002); it only changes the Newton direction, not the force.
+// Gravity m g, global drag -drag v, and the force fields (force_field_system.h) are added per mass; wind on
+// cloth acts through its triangles' normals. External forces are taken explicitly by implicit Euler,
+// except their linear damping, which joins the system matrix.
+
+#include "components/force_field.h"
+#include "components/spring_network.h"
+#include "systems/block_sparse.h"
+
+#include <vector>
+
+namespace tumble {
+
+/// What acts on a network besides its springs.
+struct Environment {
+    Vec3 gravity;                                    ///< m/s^2
+    const std::vector<ForceField>* fields = nullptr; ///< the scene's force fields, or none
+};
+
+/// Net force on every mass for positions x and velocities v (pinned masses get whatever acts on them).
+void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
+                  const std::vector<Vec3>& v, std::vector<Vec3>& f);
+
+/// The stiffness block K of a spring (see the header comment) and its unit direction from a to b.
+/// Returns false for coincident masses (no direction).
+bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u);
+
+/// Linear damping on each mass from drag and fields, N s/m (dF/dv = -c I).
+double massDamping(const SpringNetwork& net, const Environment& env, const Vec3& x);
+
+} // namespace tumble

@@ -1,0 +1,51 @@
+#pragma once
+// The five integrators of a spring network. With h the step, a(x, v) = F(x, v) / m:
+//
+// explicit_euler    x' = x + h v, v' = v + h a(x, v). First order. Unstable for any undamped spring
+//                   (energy grows by a factor 1 + (omega h)^2 per step); one force evaluation.
+// midpoint          a half step of explicit Euler, then the full step with the midpoint's slopes. Second
+//                   order; still slowly gains energy on oscillators, stable while omega h < ~1 with damping;
+//                   two force evaluations.
+// rk4               classic fourth-order Runge-Kutta. Fourth order; stable while omega h < 2.8; loses a
+//                   little energy; four force evaluations.
+// symplectic_euler  v' = v + h a(x, v), then x' = x + h v'. First order, but symplectic: the energy of an
+//                   undamped oscillator stays within O(omega h) of its start forever; stable while
+//                   omega h < 2; one force evaluation. The cheapest integrator worth using.
+// implicit_euler    backward Euler linearised once per step (Baraff & Witkin 1998):
+//                   (M - h dF/dv - h^2 dF/dx) dv = h (F + h dF/dx v), v' = v + dv, x' = x + h v'.
+//                   First order; unconditionally stable, at the price of numerical damping (energy is
+//                   lost, more at larger h). Cost: assembling the sparse 3x3-block system (pattern built
+//                   once) and a conjugate-gradient solve warm-started from the previous step's dv and
+//                   preconditioned by multigrid (linear_solver.h). Pinned masses are constraint-filtered.
+
+#include "components/spring_network.h"
+#include "systems/block_sparse.h"
+#include "systems/linear_solver.h"
+#include "systems/spring_forces.h"
+
+#include <array>
+#include <vector>
+
+namespace tumble {
+
+/// Scratch of one network's integrator, kept between steps so that a step allocates nothing. Only `dv`
+/// (the warm start of implicit Euler) carries over from one step to the next.
+struct SpringWorkspace {
+    std::vector<Vec3> f;              ///< forces
+    std::vector<Vec3> xs, v2, v3, v4; ///< stage positions and velocities (midpoint, rk4)
+    std::vector<Vec3> a1, a2, a3, a4; ///< stage accelerations
+
+    // implicit Euler
+    BlockMatrix system;                                   ///< fixed pattern: the links plus the diagonal
+    std::vector<std::array<std::uint32_t, 2>> linkBlocks; ///< per link: its (a, b) and (b, a) blocks
+    AggregationMultigrid multigrid;
+    PcgVectors pcg;
+    std::vector<Vec3> rhs;
+    std::vector<Vec3> dv; ///< last step's velocity change: the warm start
+    SolveStats lastSolve;
+};
+
+/// Advances a network by one step of its integrator.
+void stepNetwork(SpringNetwork& net, SpringWorkspace& work, const Environment& env, double h);
+
+} // namespace tumble
