@@ -42,8 +42,9 @@ struct SpringNetwork {
     Integrator integrator = Integrator::SymplecticEuler;
     double thickness = 0.0;    ///< m, kept between masses and collider surfaces
     double friction = 0.5;     ///< Coulomb coefficient against colliders
-    double cgTolerance = 1e-4; ///< implicit Euler: relative residual the solve stops at
+    double cgTolerance = 1e-3; ///< implicit Euler: relative residual the solve stops at
     int cgMaxIterations = 200; ///< implicit Euler: iterations at most per step
+    bool doublePrecisionSolve = false; ///< implicit Euler: solve in double rather than float
 
     // shape, for wind on surfaces, the dump and the renderer
     NetworkKind kind = NetworkKind::Springs;

@@ -5,9 +5,10 @@
 
 namespace tumble {
 
-Mat3 Mat3::inverse() const {
+template <class S>
+Mat3T<S> Mat3T<S>::inverse() const {
     const auto& a = m;
-    Mat3 r;
+    Mat3T r;
     r.m[0] = a[4] * a[8] - a[5] * a[7];
     r.m[1] = a[2] * a[7] - a[1] * a[8];
     r.m[2] = a[1] * a[5] - a[2] * a[4];
@@ -17,16 +18,17 @@ Mat3 Mat3::inverse() const {
     r.m[6] = a[3] * a[7] - a[4] * a[6];
     r.m[7] = a[1] * a[6] - a[0] * a[7];
     r.m[8] = a[0] * a[4] - a[1] * a[3];
-    const double det = a[0] * r.m[0] + a[1] * r.m[3] + a[2] * r.m[6];
-    const double inv = 1.0 / det;
-    for (double& x : r.m) {
+    const S det = a[0] * r.m[0] + a[1] * r.m[3] + a[2] * r.m[6];
+    const S inv = S(1) / det;
+    for (S& x : r.m) {
         x *= inv;
     }
     return r;
 }
 
-BlockMatrix BlockMatrix::fromPairs(std::uint32_t n,
-                                   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs) {
+template <class S>
+BlockMatrix<S> BlockMatrix<S>::fromPairs(std::uint32_t n,
+                                         std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs) {
     // both orientations and the diagonal, sorted and unique: a deterministic pattern
     const std::size_t given = pairs.size();
     pairs.reserve(2 * given + n);
@@ -57,11 +59,12 @@ BlockMatrix BlockMatrix::fromPairs(std::uint32_t n,
     for (std::uint32_t i = 0; i < n; ++i) {
         a.rowStart[std::size_t(i) + 1] += a.rowStart[i];
     }
-    a.val.assign(a.col.size(), Mat3{});
+    a.val.assign(a.col.size(), Mat3T<S>{});
     return a;
 }
 
-std::uint32_t BlockMatrix::find(std::uint32_t i, std::uint32_t j) const {
+template <class S>
+std::uint32_t BlockMatrix<S>::find(std::uint32_t i, std::uint32_t j) const {
     const auto first = col.begin() + rowStart[i], last = col.begin() + rowStart[std::size_t(i) + 1];
     const auto it = std::lower_bound(first, last, j);
     if (it == last || *it != j) {
@@ -70,19 +73,26 @@ std::uint32_t BlockMatrix::find(std::uint32_t i, std::uint32_t j) const {
     return static_cast<std::uint32_t>(it - col.begin());
 }
 
-void BlockMatrix::setZero() {
-    std::fill(val.begin(), val.end(), Mat3{});
+template <class S>
+void BlockMatrix<S>::setZero() {
+    std::fill(val.begin(), val.end(), Mat3T<S>{});
 }
 
-void BlockMatrix::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) const {
+template <class S>
+void BlockMatrix<S>::multiply(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y) const {
     y.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) {
-        Vec3 sum;
+        Vec3T<S> sum;
         for (std::uint32_t b = rowStart[i]; b < rowStart[std::size_t(i) + 1]; ++b) {
-            sum += val[b] * x[col[b]];
+            sum += symmetricTimes(val[b], x[col[b]]);
         }
         y[i] = sum;
     }
 }
+
+template struct Mat3T<float>;
+template struct Mat3T<double>;
+template struct BlockMatrix<float>;
+template struct BlockMatrix<double>;
 
 } // namespace tumble

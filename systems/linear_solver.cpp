@@ -8,23 +8,25 @@ namespace tumble {
 
 namespace {
 
-constexpr std::uint32_t kCoarsestRows = 24; // solved by dense Cholesky (72 x 72 at most)
+constexpr std::uint32_t kCoarsestRows = 8; // solved by dense Cholesky (24 x 24 at most)
 constexpr std::size_t kMaxLevels = 32;
 
 /// Coupling strength of each stored block: the off-diagonal blocks of these matrices are -(h kd uu^T + h^2 K)
 /// sums, so minus their trace measures how strongly two rows pull on each other.
-std::vector<double> strengths(const BlockMatrix& a) {
+template <class S>
+std::vector<double> strengths(const BlockMatrix<S>& a) {
     std::vector<double> s(a.val.size(), 0.0);
     for (std::uint32_t i = 0; i < a.n; ++i) {
         for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
-            s[b] = a.col[b] == i ? 0.0 : std::max(0.0, -a.val[b].trace());
+            s[b] = a.col[b] == i ? 0.0 : std::max(0.0, -double(a.val[b].trace()));
         }
     }
     return s;
 }
 
 /// Greedy pairwise matching in row order: each unmatched row joins its strongest unmatched neighbour.
-std::uint32_t matchPairs(const BlockMatrix& pattern, const std::vector<double>& strength,
+template <class S>
+std::uint32_t matchPairs(const BlockMatrix<S>& pattern, const std::vector<double>& strength,
                          std::vector<std::uint32_t>& group) {
     constexpr std::uint32_t kNone = 0xffffffffu;
     group.assign(pattern.n, kNone);
@@ -52,8 +54,9 @@ std::uint32_t matchPairs(const BlockMatrix& pattern, const std::vector<double>& 
 }
 
 /// The pattern of the matrix coarsened by a grouping, and where each fine block sums into.
-BlockMatrix coarsePattern(const BlockMatrix& fine, const std::vector<std::uint32_t>& group,
-                          std::uint32_t count, std::vector<std::uint32_t>& blockSlot) {
+template <class S>
+BlockMatrix<S> coarsePattern(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& group,
+                             std::uint32_t count, std::vector<std::uint32_t>& blockSlot) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     pairs.reserve(fine.col.size());
     for (std::uint32_t i = 0; i < fine.n; ++i) {
@@ -61,7 +64,7 @@ BlockMatrix coarsePattern(const BlockMatrix& fine, const std::vector<std::uint32
             pairs.emplace_back(group[i], group[fine.col[b]]);
         }
     }
-    BlockMatrix coarse = BlockMatrix::fromPairs(count, std::move(pairs));
+    BlockMatrix<S> coarse = BlockMatrix<S>::fromPairs(count, std::move(pairs));
     blockSlot.resize(fine.col.size());
     for (std::uint32_t i = 0; i < fine.n; ++i) {
         for (std::uint32_t b = fine.rowStart[i]; b < fine.rowStart[std::size_t(i) + 1]; ++b) {
@@ -71,48 +74,54 @@ BlockMatrix coarsePattern(const BlockMatrix& fine, const std::vector<std::uint32
     return coarse;
 }
 
-void galerkin(const BlockMatrix& fine, const std::vector<std::uint32_t>& blockSlot, BlockMatrix& coarse) {
+template <class S>
+void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& blockSlot, BlockMatrix<S>& coarse) {
     coarse.setZero();
     for (std::size_t b = 0; b < fine.val.size(); ++b) {
         coarse.val[blockSlot[b]] += fine.val[b];
     }
 }
 
-void invertDiagonal(const BlockMatrix& a, std::vector<Mat3>& out) {
+template <class S>
+void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out) {
     out.resize(a.n);
     for (std::uint32_t i = 0; i < a.n; ++i) {
         out[i] = a.val[a.diag[i]].inverse();
     }
 }
 
-double dot(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+/// Dot product accumulated in double, in index order (deterministic, and exact enough for float vectors).
+template <class S>
+double dotAll(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b) {
     double s = 0.0;
     for (std::size_t i = 0; i < a.size(); ++i) {
-        s += tumble::dot(a[i], b[i]);
+        s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) + double(a[i].z) * double(b[i].z);
     }
     return s;
 }
 
-void filter(std::vector<Vec3>& v, const std::vector<std::uint8_t>& fixed) {
+template <class S>
+void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
     for (std::size_t i = 0; i < v.size(); ++i) {
         if (fixed[i]) {
-            v[i] = Vec3{};
+            v[i] = Vec3T<S>{};
         }
     }
 }
 
 } // namespace
 
-void AggregationMultigrid::build(const BlockMatrix& fine) {
+template <class S>
+void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
     m_levels.clear();
     m_levels.reserve(kMaxLevels);
-    const BlockMatrix* current = &fine;
+    const BlockMatrix<S>* current = &fine;
     while (current->n > kCoarsestRows && m_levels.size() < kMaxLevels) {
         // double pairwise matching: pairs of rows, then pairs of those pairs
-        std::vector<std::uint32_t> first, second, unused;
+        std::vector<std::uint32_t> first, second, middleSlots;
         const std::uint32_t n1 = matchPairs(*current, strengths(*current), first);
-        BlockMatrix middle = coarsePattern(*current, first, n1, unused);
-        galerkin(*current, unused, middle);
+        BlockMatrix<S> middle = coarsePattern(*current, first, n1, middleSlots);
+        galerkin(*current, middleSlots, middle);
         const std::uint32_t n2 = matchPairs(middle, strengths(middle), second);
         if (n2 * 5 > current->n * 4) {
             break; // coarsening stalled (a graph with few couplings): solve what is left directly
@@ -130,12 +139,13 @@ void AggregationMultigrid::build(const BlockMatrix& fine) {
     m_built = true;
 }
 
-void AggregationMultigrid::update(const BlockMatrix& a) {
+template <class S>
+void AggregationMultigrid<S>::update(const BlockMatrix<S>& a) {
     m_fine = &a;
     if (!m_built) {
         build(a);
     } else {
-        const BlockMatrix* finer = &a;
+        const BlockMatrix<S>* finer = &a;
         for (Level& level : m_levels) {
             galerkin(*finer, level.blockSlot, level.a);
             finer = &level.a;
@@ -148,8 +158,9 @@ void AggregationMultigrid::update(const BlockMatrix& a) {
     factorCoarsest();
 }
 
-void AggregationMultigrid::factorCoarsest() {
-    const BlockMatrix& c = m_levels.empty() ? *m_fine : m_levels.back().a;
+template <class S>
+void AggregationMultigrid<S>::factorCoarsest() {
+    const BlockMatrix<S>& c = m_levels.empty() ? *m_fine : m_levels.back().a;
     const std::size_t d = 3 * std::size_t(c.n);
     m_coarsestDim = d;
     m_cholesky.assign(d * d, 0.0);
@@ -157,12 +168,12 @@ void AggregationMultigrid::factorCoarsest() {
         for (std::uint32_t b = c.rowStart[i]; b < c.rowStart[std::size_t(i) + 1]; ++b) {
             for (std::size_t r = 0; r < 3; ++r) {
                 for (std::size_t k = 0; k < 3; ++k) {
-                    m_cholesky[(3 * i + r) * d + 3 * c.col[b] + k] = c.val[b].m[3 * r + k];
+                    m_cholesky[(3 * i + r) * d + 3 * c.col[b] + k] = double(c.val[b].m[3 * r + k]);
                 }
             }
         }
     }
-    // in-place lower Cholesky; the operator is SPD by construction
+    // in-place lower Cholesky, in double whatever S is; the operator is SPD by construction
     for (std::size_t j = 0; j < d; ++j) {
         double diag = m_cholesky[j * d + j];
         for (std::size_t k = 0; k < j; ++k) {
@@ -183,13 +194,14 @@ void AggregationMultigrid::factorCoarsest() {
     }
 }
 
-void AggregationMultigrid::solveCoarsest(const std::vector<Vec3>& b, std::vector<Vec3>& x) const {
+template <class S>
+void AggregationMultigrid<S>::solveCoarsest(const std::vector<Vec>& b, std::vector<Vec>& x) const {
     const std::size_t d = m_coarsestDim;
     std::vector<double>& y = m_coarseWork;
     y.resize(d);
     for (std::size_t i = 0; i < d; ++i) {
-        const Vec3& bi = b[i / 3];
-        double s = (i % 3 == 0) ? bi.x : (i % 3 == 1) ? bi.y : bi.z;
+        const Vec& bi = b[i / 3];
+        double s = double((i % 3 == 0) ? bi.x : (i % 3 == 1) ? bi.y : bi.z);
         for (std::size_t k = 0; k < i; ++k) {
             s -= m_cholesky[i * d + k] * y[k];
         }
@@ -204,101 +216,116 @@ void AggregationMultigrid::solveCoarsest(const std::vector<Vec3>& b, std::vector
     }
     x.resize(d / 3);
     for (std::size_t i = 0; i < d / 3; ++i) {
-        x[i] = {y[3 * i], y[3 * i + 1], y[3 * i + 2]};
+        x[i] = {S(y[3 * i]), S(y[3 * i + 1]), S(y[3 * i + 2])};
     }
 }
 
-void AggregationMultigrid::smooth(const BlockMatrix& a, const std::vector<Mat3>& dinv,
-                                  const std::vector<Vec3>& b, std::vector<Vec3>& x, bool forward) const {
-    for (std::uint32_t k = 0; k < a.n; ++k) {
-        const std::uint32_t i = forward ? k : a.n - 1 - k;
-        Vec3 s = b[i];
+template <class S>
+void AggregationMultigrid<S>::smoothBackward(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
+                                             const std::vector<Vec>& b, std::vector<Vec>& x) const {
+    for (std::uint32_t i = a.n; i-- > 0;) {
+        Vec s = b[i];
         for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[std::size_t(i) + 1]; ++bl) {
             if (a.col[bl] != i) {
-                s -= a.val[bl] * x[a.col[bl]];
+                s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
             }
         }
-        x[i] = dinv[i] * s;
+        x[i] = symmetricTimes(dinv[i], s);
     }
 }
 
-void AggregationMultigrid::cycle(std::size_t level, const std::vector<Vec3>& b, std::vector<Vec3>& x) {
+template <class S>
+void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x) {
     if (level == m_levels.size()) {
         solveCoarsest(b, x);
         return;
     }
-    const BlockMatrix& a = level == 0 ? *m_fine : m_levels[level - 1].a;
-    const std::vector<Mat3>& dinv = level == 0 ? m_fineDiagInverse : m_levels[level - 1].diagInverse;
-    std::vector<Vec3>& r = level == 0 ? m_fineResidual : m_levels[level - 1].r;
+    const BlockMatrix<S>& a = level == 0 ? *m_fine : m_levels[level - 1].a;
+    const std::vector<Mat>& dinv = level == 0 ? m_fineDiagInverse : m_levels[level - 1].diagInverse;
+    std::vector<Vec>& r = level == 0 ? m_fineResidual : m_levels[level - 1].r;
     Level& next = m_levels[level];
 
-    x.assign(a.n, Vec3{});
-    smooth(a, dinv, b, x, true);
-    a.multiply(x, r);
-    next.b.assign(next.a.n, Vec3{});
+    // forward Gauss-Seidel from x = 0 and the residual after it, in one pass over the lower blocks: row i
+    // sees only new values below it (s_i = b_i - sum_{j<i} A_ij x_j, x_i = D_i^-1 s_i), and since
+    // D_i x_i = s_i its residual is just -sum_{j>i} A_ij x_j, which later rows add as their x_j appear
+    x.resize(a.n);
+    r.assign(a.n, Vec{});
     for (std::uint32_t i = 0; i < a.n; ++i) {
-        next.b[next.group[i]] += b[i] - r[i];
+        Vec s = b[i];
+        const std::uint32_t d = a.diag[i];
+        for (std::uint32_t bl = a.rowStart[i]; bl < d; ++bl) {
+            s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
+        }
+        x[i] = symmetricTimes(dinv[i], s);
+        // x_i enters the residual of each earlier row j through A_ji = A_ij (every block is symmetric)
+        for (std::uint32_t bl = a.rowStart[i]; bl < d; ++bl) {
+            r[a.col[bl]] -= symmetricTimes(a.val[bl], x[i]);
+        }
+    }
+    // restrict, correct on the coarser level, prolong, and smooth backwards (the V-cycle stays symmetric)
+    next.b.assign(next.a.n, Vec{});
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        next.b[next.group[i]] += r[i];
     }
     cycle(level + 1, next.b, next.x);
     for (std::uint32_t i = 0; i < a.n; ++i) {
         x[i] += next.x[next.group[i]];
     }
-    smooth(a, dinv, b, x, false);
+    smoothBackward(a, dinv, b, x);
 }
 
-void AggregationMultigrid::apply(const std::vector<Vec3>& r, std::vector<Vec3>& z) {
+template <class S>
+void AggregationMultigrid<S>::apply(const std::vector<Vec>& r, std::vector<Vec>& z) {
     cycle(0, r, z);
 }
 
-SolveStats solvePcg(const BlockMatrix& a, const std::vector<Vec3>& b, std::vector<Vec3>& x,
-                    AggregationMultigrid& preconditioner, const std::vector<std::uint8_t>& fixed, double tol,
-                    int maxIterations, PcgVectors& work) {
+template <class S>
+SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
+                    AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed, double tol,
+                    int maxIterations, PcgVectors<S>& work) {
     SolveStats stats;
     const std::size_t n = a.n;
     x.resize(n);
     filter(x, fixed);
-    const double bnorm = std::sqrt(dot(b, b));
+    const double bnorm = std::sqrt(dotAll(b, b));
     if (bnorm == 0.0) {
-        std::fill(x.begin(), x.end(), Vec3{});
+        std::fill(x.begin(), x.end(), Vec3T<S>{});
         stats.converged = true;
         return stats;
     }
     auto& [r, z, p, ap] = work;
     r.resize(n);
-    z.resize(n);
-    p.resize(n);
-    ap.resize(n);
     a.multiply(x, ap);
     for (std::size_t i = 0; i < n; ++i) {
         r[i] = b[i] - ap[i];
     }
     filter(r, fixed);
-    double rnorm = std::sqrt(dot(r, r));
+    double rnorm = std::sqrt(dotAll(r, r));
     preconditioner.apply(r, z);
     filter(z, fixed);
     p = z;
-    double rz = dot(r, z);
+    double rz = dotAll(r, z);
     while (rnorm > tol * bnorm && stats.iterations < maxIterations) {
         a.multiply(p, ap);
         filter(ap, fixed);
-        const double pap = dot(p, ap);
+        const double pap = dotAll(p, ap);
         if (!(pap > 0.0)) {
             break; // lost positive definiteness to round-off: keep what we have
         }
-        const double alpha = rz / pap;
+        const S alpha = S(rz / pap);
         for (std::size_t i = 0; i < n; ++i) {
             x[i] += p[i] * alpha;
             r[i] -= ap[i] * alpha;
         }
         ++stats.iterations;
-        rnorm = std::sqrt(dot(r, r));
+        rnorm = std::sqrt(dotAll(r, r));
         if (rnorm <= tol * bnorm) {
             break;
         }
         preconditioner.apply(r, z);
         filter(z, fixed);
-        const double rzNext = dot(r, z);
-        const double beta = rzNext / rz;
+        const double rzNext = dotAll(r, z);
+        const S beta = S(rzNext / rz);
         rz = rzNext;
         for (std::size_t i = 0; i < n; ++i) {
             p[i] = z[i] + p[i] * beta;
@@ -308,5 +335,14 @@ SolveStats solvePcg(const BlockMatrix& a, const std::vector<Vec3>& b, std::vecto
     stats.converged = rnorm <= tol * bnorm;
     return stats;
 }
+
+template class AggregationMultigrid<float>;
+template class AggregationMultigrid<double>;
+template SolveStats solvePcg(const BlockMatrix<float>&, const std::vector<Vec3T<float>>&,
+                             std::vector<Vec3T<float>>&, AggregationMultigrid<float>&,
+                             const std::vector<std::uint8_t>&, double, int, PcgVectors<float>&);
+template SolveStats solvePcg(const BlockMatrix<double>&, const std::vector<Vec3T<double>>&,
+                             std::vector<Vec3T<double>>&, AggregationMultigrid<double>&,
+                             const std::vector<std::uint8_t>&, double, int, PcgVectors<double>&);
 
 } // namespace tumble

@@ -13,8 +13,14 @@
 // groups and the coarse patterns are chosen once, from the first matrix, and reused; each step only
 // re-sums the values. Smoothing is block Gauss-Seidel, forward before the coarse correction and backward
 // after, so the V-cycle is symmetric as CG requires; the coarsest level is solved exactly (dense Cholesky).
+//
+// Every block of these matrices is symmetric: a spring's block h kd uu^T + h^2 K is, the mass and damping
+// diagonal is, and sums of symmetric blocks (Galerkin products, pinned rows cleared on both sides) are.
+// The kernels rely on it (Mat3 A_ji = A_ij, rows = columns).
 
 #include "systems/block_sparse.h"
+
+#include <cstddef>
 
 #include <cstdint>
 #include <vector>
@@ -22,44 +28,49 @@
 namespace tumble {
 
 /// A multigrid V-cycle over a BlockMatrix; see the header comment.
+template <class S>
 class AggregationMultigrid {
 public:
+    using Vec = Vec3T<S>;
+    using Mat = Mat3T<S>;
+
     /// Prepares for a new matrix value set (same pattern as the first call, which also builds the levels).
-    void update(const BlockMatrix& a);
+    void update(const BlockMatrix<S>& a);
     /// z = one V-cycle applied to r (an approximation of A^-1 r).
-    void apply(const std::vector<Vec3>& r, std::vector<Vec3>& z);
+    void apply(const std::vector<Vec>& r, std::vector<Vec>& z);
     /// Number of levels, the finest included.
     std::size_t levels() const { return m_levels.size() + 1; }
 
 private:
     struct Level {
-        BlockMatrix a;                        ///< the Galerkin operator of this level
+        BlockMatrix<S> a;                     ///< the Galerkin operator of this level
         std::vector<std::uint32_t> group;     ///< finer row -> row of this level
         std::vector<std::uint32_t> blockSlot; ///< finer block -> block of this level it sums into
-        std::vector<Mat3> diagInverse;        ///< of this level's diagonal blocks (for the smoother)
-        std::vector<Vec3> x, b, r;            ///< work vectors
+        std::vector<Mat> diagInverse;         ///< of this level's diagonal blocks (for the smoother)
+        std::vector<Vec> x, b, r;             ///< work vectors
     };
 
-    void build(const BlockMatrix& fine);
-    void smooth(const BlockMatrix& a, const std::vector<Mat3>& dinv, const std::vector<Vec3>& b,
-                std::vector<Vec3>& x, bool forward) const;
-    void cycle(std::size_t level, const std::vector<Vec3>& b, std::vector<Vec3>& x);
+    void build(const BlockMatrix<S>& fine);
+    void smoothBackward(const BlockMatrix<S>& a, const std::vector<Mat>& dinv, const std::vector<Vec>& b,
+                        std::vector<Vec>& x) const;
+    void cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x);
     void factorCoarsest();
-    void solveCoarsest(const std::vector<Vec3>& b, std::vector<Vec3>& x) const;
+    void solveCoarsest(const std::vector<Vec>& b, std::vector<Vec>& x) const;
 
-    const BlockMatrix* m_fine = nullptr;
-    std::vector<Mat3> m_fineDiagInverse;
+    const BlockMatrix<S>* m_fine = nullptr;
+    std::vector<Mat> m_fineDiagInverse;
     std::vector<Level> m_levels;    ///< coarser and coarser; the last is solved directly
     std::vector<double> m_cholesky; ///< dense lower factor of the coarsest operator (or of the fine one)
     mutable std::vector<double> m_coarseWork;
     std::size_t m_coarsestDim = 0;
     bool m_built = false;
-    std::vector<Vec3> m_fineResidual;
+    std::vector<Vec> m_fineResidual;
 };
 
 /// The work vectors of a conjugate-gradient solve, kept between steps so a step allocates nothing.
+template <class S>
 struct PcgVectors {
-    std::vector<Vec3> r, z, p, ap;
+    std::vector<Vec3T<S>> r, z, p, ap;
 };
 
 /// Result of a conjugate-gradient solve.
@@ -72,8 +83,12 @@ struct SolveStats {
 /// Solves A x = b by preconditioned CG from the x given (a warm start). Rows with `fixed` set are held at
 /// zero (constraint filtering: their residual and search direction are zeroed). Stops when |r| <= tol |b|
 /// or after maxIterations. Deterministic: every reduction runs in index order.
-SolveStats solvePcg(const BlockMatrix& a, const std::vector<Vec3>& b, std::vector<Vec3>& x,
-                    AggregationMultigrid& preconditioner, const std::vector<std::uint8_t>& fixed, double tol,
-                    int maxIterations, PcgVectors& work);
+template <class S>
+SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
+                    AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed, double tol,
+                    int maxIterations, PcgVectors<S>& work);
+
+extern template class AggregationMultigrid<float>;
+extern template class AggregationMultigrid<double>;
 
 } // namespace tumble

@@ -75,83 +75,119 @@ void rk4(SpringNetwork& net, SpringWorkspace& w, const Environment& env, double 
     }
 }
 
-/// The block pattern of a network's system matrix, and where each link's blocks are.
-void buildPattern(const SpringNetwork& net, SpringWorkspace& w) {
+/// The block pattern of a network's system matrix, where each link's blocks are, and which blocks the
+/// pinned masses clear.
+template <class S>
+void buildPattern(const SpringNetwork& net, ImplicitSolver<S>& w) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     pairs.reserve(net.links.size());
     for (const SpringLink& s : net.links) {
         pairs.emplace_back(std::min(s.a, s.b), std::max(s.a, s.b));
     }
-    w.system = BlockMatrix::fromPairs(static_cast<std::uint32_t>(net.x.size()), std::move(pairs));
+    w.system = BlockMatrix<S>::fromPairs(static_cast<std::uint32_t>(net.x.size()), std::move(pairs));
     w.linkBlocks.resize(net.links.size());
     for (std::size_t k = 0; k < net.links.size(); ++k) {
         const SpringLink& s = net.links[k];
         w.linkBlocks[k] = {w.system.find(s.a, s.b), w.system.find(s.b, s.a)};
     }
-    w.dv.assign(net.x.size(), Vec3{});
+    w.dv.assign(net.x.size(), Vec3T<S>{});
+    w.multigrid = AggregationMultigrid<S>{};
 }
 
-void implicitEuler(SpringNetwork& net, SpringWorkspace& w, const Environment& env, double h) {
+/// Blocks of the pinned masses' rows and columns (their diagonal first in each row), rebuilt when pins
+/// change.
+template <class S>
+void findPinnedBlocks(const SpringNetwork& net, ImplicitSolver<S>& w) {
+    const BlockMatrix<S>& a = w.system;
+    w.pinnedBlocks.clear();
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        if (!net.pinned[i]) {
+            continue;
+        }
+        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
+            if (a.col[b] != i) {
+                w.pinnedBlocks.push_back(b);
+                w.pinnedBlocks.push_back(a.find(a.col[b], i));
+            }
+        }
+    }
+    w.pinnedWhenBuilt = net.pinned;
+}
+
+template <class S>
+SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolver<S>& w, const Environment& env,
+                         double h) {
     const std::size_t n = net.x.size();
     if (w.system.n != n || w.linkBlocks.size() != net.links.size()) {
         buildPattern(net, w);
     }
-    BlockMatrix& a = w.system;
-    a.setZero();
-    springForces(net, env, net.x, net.v, w.f);
+    if (w.pinnedWhenBuilt != net.pinned) {
+        findPinnedBlocks(net, w);
+    }
+    BlockMatrix<S>& a = w.system;
+    springForces(net, env, net.x, net.v, work.f);
 
-    // A = M + h c I + sum over springs of (h kd uu^T + h^2 K) in the +/- pattern;
-    // b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative to b
-    w.rhs.resize(n);
+    // A = M + h c I + sum over springs of (h kd uu^T + h^2 K) in the +/- pattern, computed in double and
+    // stored in S; b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative to b
+    std::vector<Vec3>& rhs = work.xs; // double accumulation of the right-hand side
+    rhs.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double m = 1.0 / net.invMass[i];
-        a.val[a.diag[i]] = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
-        w.rhs[i] = w.f[i] * h;
+        a.val[a.diag[i]] = Mat3T<S>::identity(S(m + h * massDamping(net, env, net.x[i])));
+        rhs[i] = work.f[i] * h;
     }
     for (std::size_t k = 0; k < net.links.size(); ++k) {
         const SpringLink& s = net.links[k];
         Mat3 stiff;
         Vec3 u;
         if (!springStiffness(s, net.x[s.a], net.x[s.b], stiff, u)) {
+            a.val[w.linkBlocks[k][0]] = Mat3T<S>{};
+            a.val[w.linkBlocks[k][1]] = Mat3T<S>{};
             continue;
         }
         const Vec3 kdv = stiff * (net.v[s.b] - net.v[s.a]);
-        w.rhs[s.a] += kdv * (h * h);
-        w.rhs[s.b] -= kdv * (h * h);
+        rhs[s.a] += kdv * (h * h);
+        rhs[s.b] -= kdv * (h * h);
         Mat3 block = Mat3::outer(u, h * s.kd);
         for (std::size_t e = 0; e < 9; ++e) {
             block.m[e] += h * h * stiff.m[e];
         }
-        a.val[a.diag[s.a]] += block;
-        a.val[a.diag[s.b]] += block;
-        a.val[w.linkBlocks[k][0]] -= block;
-        a.val[w.linkBlocks[k][1]] -= block;
+        const Mat3T<S> blockS = block.template cast<S>();
+        a.val[a.diag[s.a]] += blockS;
+        a.val[a.diag[s.b]] += blockS;
+        // each link owns its off-diagonal blocks (links are unique pairs), so they are set, not summed
+        Mat3T<S> negative;
+        for (std::size_t e = 0; e < 9; ++e) {
+            negative.m[e] = -blockS.m[e];
+        }
+        a.val[w.linkBlocks[k][0]] = negative;
+        a.val[w.linkBlocks[k][1]] = negative;
     }
     // constraint filtering: a pinned mass's row and column become the identity, its dv zero
-    for (std::uint32_t i = 0; i < n; ++i) {
-        if (!net.pinned[i]) {
-            continue;
+    for (std::uint32_t b : w.pinnedBlocks) {
+        a.val[b] = Mat3T<S>{};
+    }
+    w.rhs.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (net.pinned[i]) {
+            a.val[a.diag[i]] = Mat3T<S>::identity();
+            w.rhs[i] = Vec3T<S>{};
+        } else {
+            w.rhs[i] = Vec3T<S>::from(rhs[i]);
         }
-        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
-            const std::uint32_t j = a.col[b];
-            a.val[b] = j == i ? Mat3::identity() : Mat3{};
-            if (j != i) {
-                a.val[a.find(j, i)] = Mat3{};
-            }
-        }
-        w.rhs[i] = Vec3{};
     }
 
     w.multigrid.update(a);
-    w.lastSolve =
+    const SolveStats stats =
         solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg);
     for (std::size_t i = 0; i < n; ++i) {
         if (net.pinned[i]) {
             continue;
         }
-        net.v[i] += w.dv[i];
+        net.v[i] += w.dv[i].toVec3();
         net.x[i] += net.v[i] * h;
     }
+    return stats;
 }
 
 } // namespace
@@ -171,7 +207,8 @@ void stepNetwork(SpringNetwork& net, SpringWorkspace& work, const Environment& e
         symplecticEuler(net, work, env, h);
         break;
     case Integrator::ImplicitEuler:
-        implicitEuler(net, work, env, h);
+        work.lastSolve = net.doublePrecisionSolve ? implicitEuler(net, work, work.precise, env, h)
+                                                  : implicitEuler(net, work, work.single, env, h);
         break;
     }
     // pinned masses stay where they are

@@ -28,20 +28,29 @@
 
 namespace tumble {
 
-/// Scratch of one network's integrator, kept between steps so that a step allocates nothing. Only `dv`
-/// (the warm start of implicit Euler) carries over from one step to the next.
+/// The implicit solver's state in one precision: the system (fixed pattern), its preconditioner, and the
+/// last velocity change (the next solve's warm start).
+template <class S>
+struct ImplicitSolver {
+    BlockMatrix<S> system;                                ///< the links plus the diagonal
+    std::vector<std::array<std::uint32_t, 2>> linkBlocks; ///< per link: its (a, b) and (b, a) blocks
+    std::vector<std::uint32_t> pinnedBlocks;              ///< blocks to clear for pinned rows and columns
+    AggregationMultigrid<S> multigrid;
+    PcgVectors<S> pcg;
+    std::vector<Vec3T<S>> rhs;
+    std::vector<Vec3T<S>> dv; ///< last step's velocity change: the warm start
+    std::vector<std::uint8_t> pinnedWhenBuilt;
+};
+
+/// Scratch of one network's integrator, kept between steps so that a step allocates nothing. Only the
+/// implicit solvers' `dv` (warm starts) carries over from one step to the next.
 struct SpringWorkspace {
     std::vector<Vec3> f;              ///< forces
     std::vector<Vec3> xs, v2, v3, v4; ///< stage positions and velocities (midpoint, rk4)
     std::vector<Vec3> a1, a2, a3, a4; ///< stage accelerations
 
-    // implicit Euler
-    BlockMatrix system;                                   ///< fixed pattern: the links plus the diagonal
-    std::vector<std::array<std::uint32_t, 2>> linkBlocks; ///< per link: its (a, b) and (b, a) blocks
-    AggregationMultigrid multigrid;
-    PcgVectors pcg;
-    std::vector<Vec3> rhs;
-    std::vector<Vec3> dv; ///< last step's velocity change: the warm start
+    ImplicitSolver<float> single;     ///< implicit Euler, solver_precision = "float" (the default)
+    ImplicitSolver<double> precise;   ///< implicit Euler, solver_precision = "double"
     SolveStats lastSolve;
 };
 

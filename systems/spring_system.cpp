@@ -39,8 +39,9 @@ void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrato
     net.drag = r.number("drag", 0.0, 0.0, 1e9);
     net.thickness = r.number("thickness", 0.01, 0.0, 10.0);
     net.friction = r.number("friction", 0.5, 0.0, 100.0);
-    net.cgTolerance = r.number("cg_tolerance", 1e-4, 1e-14, 0.5);
+    net.cgTolerance = r.number("cg_tolerance", 1e-3, 1e-14, 0.5);
     net.cgMaxIterations = static_cast<int>(r.integer("cg_max_iterations", 200, 1, 100000));
+    net.doublePrecisionSolve = r.choice("solver_precision", "float", {"float", "double"}) == "double";
 }
 
 /// `pin`: a preset name or a list of mass indices.
@@ -367,7 +368,8 @@ void registerSpringSystem(Catalog& catalog) {
             hashNetwork(w.get<SpringNetwork>(e), h);
             // implicit Euler's warm start shapes the next step, so it is state too
             if (const auto* work = w.tryGet<SpringWorkspace>(e)) {
-                h.add(work->dv);
+                h.add(work->single.dv);
+                h.add(work->precise.dv);
             }
         }});
 
