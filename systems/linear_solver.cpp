@@ -25,24 +25,37 @@ std::vector<double> strengths(const BlockMatrix<S>& a) {
 }
 
 /// Greedy pairwise matching in row order: each unmatched row joins its strongest unmatched neighbour.
+/// Rows coupled to nothing (pinned masses, whose rows are the identity) pair with each other, so that they
+/// too shrink level by level instead of piling up on the coarsest one.
 template <class S>
 std::uint32_t matchPairs(const BlockMatrix<S>& pattern, const std::vector<double>& strength,
                          std::vector<std::uint32_t>& group) {
     constexpr std::uint32_t kNone = 0xffffffffu;
     group.assign(pattern.n, kNone);
     std::uint32_t count = 0;
+    std::uint32_t lonely = kNone; // an isolated row still waiting for a partner
     for (std::uint32_t i = 0; i < pattern.n; ++i) {
         if (group[i] != kNone) {
             continue;
         }
         std::uint32_t best = kNone;
         double bestStrength = 0.0;
+        bool coupled = false;
         for (std::uint32_t b = pattern.rowStart[i]; b < pattern.rowStart[std::size_t(i) + 1]; ++b) {
             const std::uint32_t j = pattern.col[b];
+            coupled = coupled || (j != i && strength[b] > 0.0);
             if (j != i && group[j] == kNone && strength[b] > bestStrength) {
                 best = j;
                 bestStrength = strength[b];
             }
+        }
+        if (!coupled) {
+            if (lonely != kNone) {
+                group[i] = group[lonely];
+                lonely = kNone;
+                continue;
+            }
+            lonely = i;
         }
         group[i] = count;
         if (best != kNone) {

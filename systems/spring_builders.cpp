@@ -59,32 +59,66 @@ SpringNetwork buildCloth(const ClothDef& def) {
         }
     }
     addMasses(net, std::size_t(rows) * cols, def.mass);
-    for (std::uint32_t r = 0; r < rows; ++r) {
-        for (std::uint32_t c = 0; c < cols; ++c) {
-            // stretch: right and down; shear: both diagonals of the quad; bend: two right and two down
-            if (c + 1 < cols) {
+    // links grouped by kind, and ordered so that consecutive links share no mass: the force loop's
+    // scattered adds then never wait on each other 
+    for (std::uint32_t parity = 0; parity < 2; ++parity) { // stretch along rows: even columns, then odd
+        for (std::uint32_t r = 0; r < rows; ++r) {
+            for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
                 addLink(net, at(r, c), at(r, c + 1), def.stretch, def.damping);
             }
-            if (r + 1 < rows) {
+        }
+    }
+    for (std::uint32_t parity = 0; parity < 2; ++parity) { // stretch along columns
+        for (std::uint32_t r = parity; r + 1 < rows; r += 2) {
+            for (std::uint32_t c = 0; c < cols; ++c) {
                 addLink(net, at(r, c), at(r + 1, c), def.stretch, def.damping);
             }
-            if (r + 1 < rows && c + 1 < cols) {
-                addLink(net, at(r, c), at(r + 1, c + 1), def.shear, def.damping);
-                addLink(net, at(r, c + 1), at(r + 1, c), def.shear, def.damping);
-                // two triangles per quad, counter-clockwise seen from +z ("xy") or +y ("xz")
-                if (def.vertical) {
-                    net.triangles.push_back({at(r, c), at(r + 1, c), at(r + 1, c + 1)});
-                    net.triangles.push_back({at(r, c), at(r + 1, c + 1), at(r, c + 1)});
-                } else {
-                    net.triangles.push_back({at(r, c), at(r + 1, c + 1), at(r + 1, c)});
-                    net.triangles.push_back({at(r, c), at(r, c + 1), at(r + 1, c + 1)});
+        }
+    }
+    for (std::uint32_t r = 0; r + 1 < rows; ++r) { // shear: both diagonals of every quad
+        for (std::uint32_t c = 0; c + 1 < cols; ++c) {
+            addLink(net, at(r, c), at(r + 1, c + 1), def.shear, def.damping);
+        }
+    }
+    for (std::uint32_t r = 0; r + 1 < rows; ++r) {
+        for (std::uint32_t c = 0; c + 1 < cols; ++c) {
+            addLink(net, at(r, c + 1), at(r + 1, c), def.shear, def.damping);
+        }
+    }
+    if (def.bend > 0.0) { // bend: two apart, in four interleaved classes so neighbours do not touch
+        for (std::uint32_t phase = 0; phase < 4; phase += 2) {
+            for (std::uint32_t r = 0; r < rows; ++r) {
+                for (std::uint32_t c = 0; c + 2 < cols; ++c) {
+                    if ((c % 4) / 2 == phase / 2) {
+                        addLink(net, at(r, c), at(r, c + 2), def.bend, def.damping);
+                    }
                 }
             }
-            if (def.bend > 0.0 && c + 2 < cols) {
-                addLink(net, at(r, c), at(r, c + 2), def.bend, def.damping);
+        }
+        for (std::uint32_t phase = 0; phase < 4; phase += 2) {
+            for (std::uint32_t r = 0; r + 2 < rows; ++r) {
+                if ((r % 4) / 2 != phase / 2) {
+                    continue;
+                }
+                for (std::uint32_t c = 0; c < cols; ++c) {
+                    addLink(net, at(r, c), at(r + 2, c), def.bend, def.damping);
+                }
             }
-            if (def.bend > 0.0 && r + 2 < rows) {
-                addLink(net, at(r, c), at(r + 2, c), def.bend, def.damping);
+        }
+    }
+    // two triangles per quad, counter-clockwise seen from +z ("xy") or +y ("xz"); like the links, in
+    // classes (lower/upper triangle, even/odd column) whose consecutive members share no vertex
+    for (std::uint32_t upper = 0; upper < 2; ++upper) {
+        for (std::uint32_t parity = 0; parity < 2; ++parity) {
+            for (std::uint32_t r = 0; r + 1 < rows; ++r) {
+                for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
+                    const std::uint32_t q00 = at(r, c), q01 = at(r, c + 1), q10 = at(r + 1, c), q11 = at(r + 1, c + 1);
+                    if (def.vertical) {
+                        net.triangles.push_back(upper ? std::array{q00, q11, q01} : std::array{q00, q10, q11});
+                    } else {
+                        net.triangles.push_back(upper ? std::array{q00, q01, q11} : std::array{q00, q11, q10});
+                    }
+                }
             }
         }
     }

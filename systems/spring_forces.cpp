@@ -13,10 +13,16 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
     f.resize(n);
     // per mass: gravity, drag, fields (wind on cloth goes through the triangles below)
     const bool surfaceWind = net.kind == NetworkKind::Cloth && !net.triangles.empty();
+    bool pointFields = false; // any field that acts on each mass (wind on cloth acts on its triangles)
+    if (env.fields) {
+        for (const ForceField& field : *env.fields) {
+            pointFields = pointFields || !(surfaceWind && field.kind == FieldKind::Wind);
+        }
+    }
     for (std::size_t i = 0; i < n; ++i) {
         const double m = 1.0 / net.invMass[i];
         Vec3 fi = env.gravity * m - v[i] * net.drag;
-        if (env.fields) {
+        if (pointFields) {
             for (const ForceField& field : *env.fields) {
                 if (!(surfaceWind && field.kind == FieldKind::Wind)) {
                     fi += fieldForce(field, x[i], v[i], m);
@@ -44,16 +50,16 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
             if (field.kind != FieldKind::Wind) {
                 continue;
             }
+            // with A the area-weighted normal (|A| = area), area ((w - v) . n) n = ((w - v) . A) A / |A|
+            const double perCorner = field.coefficient / 3.0;
             for (const auto& t : net.triangles) {
-                const Vec3 e1 = x[t[1]] - x[t[0]], e2 = x[t[2]] - x[t[0]];
-                const Vec3 areaNormal = cross(e1, e2) * 0.5; // |.| = area
+                const Vec3 areaNormal = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]) * 0.5;
                 const double area = length(areaNormal);
                 if (area <= 1e-15) {
                     continue;
                 }
-                const Vec3 normal = areaNormal * (1.0 / area);
-                const Vec3 vt = (v[t[0]] + v[t[1]] + v[t[2]]) * (1.0 / 3.0);
-                const Vec3 ft = normal * (field.coefficient * area * dot(field.current - vt, normal) / 3.0);
+                const Vec3 relative = field.current - (v[t[0]] + v[t[1]] + v[t[2]]) * (1.0 / 3.0);
+                const Vec3 ft = areaNormal * (perCorner * dot(relative, areaNormal) / area);
                 f[t[0]] += ft;
                 f[t[1]] += ft;
                 f[t[2]] += ft;

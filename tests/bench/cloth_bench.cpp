@@ -9,6 +9,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <vector>
 
 namespace tumble {
@@ -39,7 +40,7 @@ ClothScene makeCloth(int n, Integrator integrator) {
     wind.kind = FieldKind::Wind;
     wind.strength = wind.current = {0.0, 0.0, 3.0};
     wind.coefficient = 0.5;
-    s.fields.push_back(wind);
+    if (std::getenv("NO_WIND") == nullptr) s.fields.push_back(wind);
     s.env = {{0.0, -9.81, 0.0}, &s.fields};
     return s;
 }
