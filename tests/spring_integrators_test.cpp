@@ -1,0 +1,194 @@
+// The five integrators against the theory of the harmonic oscillator: order of convergence as dt halves,
+// energy growth, conservation and loss, and stability on a stiff spring.
+//
+// The test oscillator is one free mass on a spring of rest length 1 from a pin at the origin, moving along
+// x with no gravity: the force -k (x - 1) - c v is exactly linear, so the closed forms below are exact.
+
+#include "components/spring_network.h"
+#include "engine/run_report.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace tumble {
+namespace {
+
+using test::simulate;
+
+std::string num(double v) {
+    std::ostringstream os;
+    os.precision(17);
+    os << v;
+    return os.str();
+}
+
+struct Oscillator {
+    double k = 40.0, m = 1.0, c = 0.0, a = 0.2; ///< N/m, kg, N s/m, m (initial stretch)
+};
+
+std::unique_ptr<Simulation> oscillator(const std::string& integrator, double dt, const Oscillator& o) {
+    return simulate("[scene]\nname = \"osc\"\ngravity = [0, 0, 0]\ndt = " + num(dt) +
+                    "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" + integrator +
+                    "\"\nsolver_precision = \"double\"\ncg_tolerance = 1e-13\n"
+                    "masses = [ { x = [0, 0, 0], pinned = true }, { x = [" +
+                    num(1.0 + o.a) + ", 0, 0], m = " + num(o.m) + " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " +
+                    num(o.k) + ", kd = " + num(o.c) + " } ]\n");
+}
+
+const SpringNetwork& bob(Simulation& sim) {
+    const SpringNetwork* out = nullptr;
+    sim.world().view<const SpringNetwork>().each([&](Entity, const SpringNetwork& n) { out = &n; });
+    return *out;
+}
+
+/// Displacement from rest of m x'' + c x' + k x = 0, x(0) = a, x'(0) = 0 (underdamped).
+double exactDisplacement(double t, const Oscillator& o) {
+    const double zeta = o.c / (2.0 * std::sqrt(o.k * o.m));
+    const double w0 = std::sqrt(o.k / o.m);
+    const double wd = w0 * std::sqrt(1.0 - zeta * zeta);
+    return o.a * std::exp(-zeta * w0 * t) * (std::cos(wd * t) + zeta * w0 / wd * std::sin(wd * t));
+}
+
+double errorAt(const std::string& integrator, double dt, double seconds, const Oscillator& o) {
+    auto sim = oscillator(integrator, dt, o);
+    const auto steps = std::lround(seconds / dt);
+    for (long i = 0; i < steps; ++i) {
+        sim->runFrame();
+    }
+    return std::abs(bob(*sim).x[1].x - 1.0 - exactDisplacement(sim->time(), o));
+}
+
+double energy(Simulation& sim, const Oscillator& o) {
+    const SpringNetwork& net = bob(sim);
+    const double x = net.x[1].x - 1.0, v = net.v[1].x;
+    return 0.5 * o.k * x * x + 0.5 * o.m * v * v;
+}
+
+struct OrderCase {
+    const char* integrator;
+    int order;
+};
+
+class IntegratorOrder : public ::testing::TestWithParam<OrderCase> {};
+
+TEST_P(IntegratorOrder, DampedOscillatorErrorShrinksAtTheIntegratorsOrder) {
+    const OrderCase c = GetParam();
+    const Oscillator o{40.0, 1.0, 1.5, 0.2};
+    const double e1 = errorAt(c.integrator, 0.004, 1.0, o);
+    const double e2 = errorAt(c.integrator, 0.002, 1.0, o);
+    const double e3 = errorAt(c.integrator, 0.001, 1.0, o);
+    const double expected = std::pow(2.0, c.order);
+    // each halving of dt divides the error by 2^order (within 15%)
+    EXPECT_NEAR(e1 / e2, expected, 0.15 * expected) << e1 << " " << e2;
+    EXPECT_NEAR(e2 / e3, expected, 0.15 * expected) << e2 << " " << e3;
+    // and the solution is close to the closed form to begin with
+    EXPECT_LT(e3, 0.01 * o.a) << c.integrator;
+}
+
+INSTANTIATE_TEST_SUITE_P(Springs, IntegratorOrder,
+                         ::testing::Values(OrderCase{"explicit_euler", 1}, OrderCase{"midpoint", 2},
+                                           OrderCase{"rk4", 4}, OrderCase{"symplectic_euler", 1},
+                                           OrderCase{"implicit_euler", 1}),
+                         [](const ::testing::TestParamInfo<OrderCase>& p) { return std::string(p.param.integrator); });
+
+TEST(Integrators, ExplicitEulerGainsEnergyAsTheTheorySays) {
+    // on an undamped oscillator each explicit Euler step multiplies the energy by exactly 1 + (omega h)^2
+    const Oscillator o{100.0, 1.0, 0.0, 0.1};
+    const double h = 0.01, omegaH = std::sqrt(o.k / o.m) * h;
+    auto sim = oscillator("explicit_euler", h, o);
+    const double e0 = energy(*sim, o);
+    for (int i = 0; i < 300; ++i) {
+        sim->runFrame();
+    }
+    const double predicted = e0 * std::pow(1.0 + omegaH * omegaH, 300);
+    EXPECT_NEAR(energy(*sim, o), predicted, 1e-9 * predicted);
+    EXPECT_GT(energy(*sim, o), 19.0 * e0) << "about twentyfold in three seconds";
+}
+
+TEST(Integrators, ImplicitEulerLosesEnergyAsTheTheorySays) {
+    // backward Euler on the same oscillator divides the energy by 1 + (omega h)^2 every step
+    const Oscillator o{100.0, 1.0, 0.0, 0.1};
+    const double h = 0.01, omegaH = std::sqrt(o.k / o.m) * h;
+    auto sim = oscillator("implicit_euler", h, o);
+    const double e0 = energy(*sim, o);
+    for (int i = 0; i < 300; ++i) {
+        sim->runFrame();
+    }
+    const double predicted = e0 / std::pow(1.0 + omegaH * omegaH, 300);
+    EXPECT_NEAR(energy(*sim, o), predicted, 1e-6 * predicted);
+    EXPECT_LT(energy(*sim, o), 0.06 * e0);
+}
+
+TEST(Integrators, SymplecticEulerEnergyStaysBoundedForThousandsOfPeriods) {
+    const Oscillator o{100.0, 1.0, 0.0, 0.1};
+    const double h = 0.01, omegaH = std::sqrt(o.k / o.m) * h;
+    auto sim = oscillator("symplectic_euler", h, o);
+    const double e0 = energy(*sim, o);
+    double worst = 0.0;
+    // 1000 periods of 0.63 s
+    for (int i = 0; i < 62832; ++i) {
+        sim->runFrame();
+        worst = std::max(worst, std::abs(energy(*sim, o) - e0) / e0);
+    }
+    EXPECT_LT(worst, omegaH) << "bounded by O(omega h), not growing";
+    EXPECT_LT(std::abs(energy(*sim, o) - e0) / e0, omegaH);
+}
+
+TEST(Integrators, MidpointAndRk4DriftSlowly) {
+    // midpoint gains energy slowly (|amplification|^2 = 1 + (omega h)^4 / 4), RK4 loses it slowly
+    const Oscillator o{100.0, 1.0, 0.0, 0.1};
+    auto mid = oscillator("midpoint", 0.01, o);
+    auto rk = oscillator("rk4", 0.01, o);
+    const double e0 = energy(*mid, o);
+    for (int i = 0; i < 1000; ++i) {
+        mid->runFrame();
+        rk->runFrame();
+    }
+    EXPECT_GT(energy(*mid, o), e0);
+    EXPECT_NEAR(energy(*mid, o), e0 * std::pow(1.0 + std::pow(0.1, 4) / 4.0, 1000), 1e-9 * e0);
+    EXPECT_LT(energy(*rk, o), e0);
+    EXPECT_GT(energy(*rk, o), 0.999 * e0);
+}
+
+TEST(Integrators, StiffSpringAtSixtyHertzStaysBoundedUnderImplicitEuler) {
+    // k = 1e6 at dt = 1/60: omega h = 16.7, far beyond every explicit method's stability limit
+    for (const char* precision : {"double", "float"}) {
+        auto sim = simulate("[scene]\nname = \"stiff\"\ngravity = [0, -9.81, 0]\ndt = 0.016666666666666666\n"
+                            "[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"implicit_euler\"\n"
+                            "solver_precision = \"" +
+                            std::string(precision) +
+                            "\"\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]\n"
+                            "links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]\n");
+        for (int i = 0; i < 600; ++i) {
+            sim->runFrame();
+            const SpringNetwork& net = bob(*sim);
+            ASSERT_TRUE(isFinite(net.x[1]) && isFinite(net.v[1])) << precision << " frame " << i;
+            ASSERT_LT(length(net.x[1]), 1.5 + 1e-9) << "never further out than it started";
+        }
+        EXPECT_TRUE(sim->world().resource<RunReport>().failures.empty());
+        EXPECT_NEAR(length(bob(*sim).x[1]), 1.0, 1e-3) << "it settles at its rest length";
+    }
+}
+
+TEST(Integrators, StiffSpringUnderExplicitEulerIsCaughtNotCrashed) {
+    for (const char* integrator : {"explicit_euler", "midpoint", "rk4", "symplectic_euler"}) {
+        auto sim = simulate("[scene]\nname = \"stiff\"\ndt = 0.016666666666666666\n"
+                            "[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" +
+                            std::string(integrator) +
+                            "\"\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]\n"
+                            "links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]\n");
+        for (int i = 0; i < 120; ++i) {
+            ASSERT_NO_THROW(sim->runFrame());
+        }
+        const auto& failures = sim->world().resource<RunReport>().failures;
+        ASSERT_EQ(failures.size(), 1u) << integrator;
+        EXPECT_NE(failures[0].find(integrator), std::string::npos) << failures[0];
+        EXPECT_TRUE(bob(*sim).frozen);
+    }
+}
+
+} // namespace
+} // namespace tumble
