@@ -40,10 +40,10 @@ struct SpringNetwork {
     std::vector<SpringLink> links;
     double drag = 0.0; ///< N s/m, global -drag v on every mass
     Integrator integrator = Integrator::SymplecticEuler;
-    double thickness = 0.0;    ///< m, kept between masses and collider surfaces
-    double friction = 0.5;     ///< Coulomb coefficient against colliders
-    double cgTolerance = 1e-3; ///< implicit Euler: relative residual the solve stops at
-    int cgMaxIterations = 200; ///< implicit Euler: iterations at most per step
+    double thickness = 0.0;            ///< m, kept between masses and collider surfaces
+    double friction = 0.5;             ///< Coulomb coefficient against colliders
+    double cgTolerance = 1e-3;         ///< implicit Euler: relative residual the solve stops at
+    int cgMaxIterations = 200;         ///< implicit Euler: iterations at most per step
     bool doublePrecisionSolve = false; ///< implicit Euler: solve in double rather than float
 
     // shape, for wind on surfaces, the dump and the renderer
@@ -53,6 +53,7 @@ struct SpringNetwork {
 
     // set when the network blew up: it is no longer advanced
     bool frozen = false;
+    bool blowUpFails = true; ///< false (on_blow_up = "freeze"): a blow-up is expected, noted, not a failure
 };
 
 } // namespace tumble

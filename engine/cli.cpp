@@ -164,7 +164,7 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         dumpNow(); // the initial state, frame 0
     }
     bool interrupted = false;
-    std::size_t reported = 0;
+    std::size_t reported = 0, noted = 0;
     while (sim.frame() < frames) {
         if (g_interrupted.load()) {
             interrupted = true;
@@ -172,10 +172,14 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         }
         sim.runFrame();
         // problems met during the run are said as they appear (the progress bar makes way)
-        const auto& failures = sim.world().resource<RunReport>().failures;
-        for (; reported < failures.size(); ++reported) {
+        const RunReport& report = sim.world().resource<RunReport>();
+        for (; reported < report.failures.size(); ++reported) {
             bar.clearLine();
-            std::fprintf(stderr, "tumble: error: %s\n", failures[reported].c_str());
+            std::fprintf(stderr, "tumble: error: %s\n", report.failures[reported].c_str());
+        }
+        for (; noted < report.notes.size(); ++noted) {
+            bar.clearLine();
+            std::fprintf(stderr, "tumble: note: %s\n", report.notes[noted].c_str());
         }
         if (o.dumpEvery > 0 && sim.frame() % static_cast<std::uint64_t>(o.dumpEvery) == 0) {
             dumpNow();

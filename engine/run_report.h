@@ -10,7 +10,8 @@ namespace tumble {
 
 /// A world resource: what went wrong during the run, in the order it happened.
 struct RunReport {
-    std::vector<std::string> failures;
+    std::vector<std::string> failures; ///< make the run exit 1
+    std::vector<std::string> notes;    ///< said, but expected by the scene (e.g. on_blow_up = "freeze")
 };
 
 } // namespace tumble

@@ -48,8 +48,8 @@ install_missing
 case "$mode" in
 demo)
     build build -DCMAKE_BUILD_TYPE=Release
-    out="$root/out/pendulum"
-    "$root/build/tumble" run pendulum --no-render --out "$out" \
+    out="$root/out/curtain"
+    "$root/build/tumble" run curtain --no-render --out "$out" \
         --profile "$out/profile.json" --trace "$out/trace.json" --dump "$out/state.jsonl"
     echo "bootstrap: outputs are in $out (profile.json, trace.json, state.jsonl)"
     ;;

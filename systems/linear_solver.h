@@ -85,8 +85,8 @@ struct SolveStats {
 /// or after maxIterations. Deterministic: every reduction runs in index order.
 template <class S>
 SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
-                    AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed, double tol,
-                    int maxIterations, PcgVectors<S>& work);
+                    AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed,
+                    double tol, int maxIterations, PcgVectors<S>& work);
 
 extern template class AggregationMultigrid<float>;
 extern template class AggregationMultigrid<double>;

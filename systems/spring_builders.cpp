@@ -60,7 +60,7 @@ SpringNetwork buildCloth(const ClothDef& def) {
     }
     addMasses(net, std::size_t(rows) * cols, def.mass);
     // links grouped by kind, and ordered so that consecutive links share no mass: the force loop's
-    // scattered adds then never wait on each other 
+    // scattered adds then never wait on each other
     for (std::uint32_t parity = 0; parity < 2; ++parity) { // stretch along rows: even columns, then odd
         for (std::uint32_t r = 0; r < rows; ++r) {
             for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
@@ -112,11 +112,14 @@ SpringNetwork buildCloth(const ClothDef& def) {
         for (std::uint32_t parity = 0; parity < 2; ++parity) {
             for (std::uint32_t r = 0; r + 1 < rows; ++r) {
                 for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
-                    const std::uint32_t q00 = at(r, c), q01 = at(r, c + 1), q10 = at(r + 1, c), q11 = at(r + 1, c + 1);
+                    const std::uint32_t q00 = at(r, c), q01 = at(r, c + 1), q10 = at(r + 1, c),
+                                        q11 = at(r + 1, c + 1);
                     if (def.vertical) {
-                        net.triangles.push_back(upper ? std::array{q00, q11, q01} : std::array{q00, q10, q11});
+                        net.triangles.push_back(upper ? std::array{q00, q11, q01}
+                                                      : std::array{q00, q10, q11});
                     } else {
-                        net.triangles.push_back(upper ? std::array{q00, q01, q11} : std::array{q00, q11, q10});
+                        net.triangles.push_back(upper ? std::array{q00, q01, q11}
+                                                      : std::array{q00, q11, q10});
                     }
                 }
             }

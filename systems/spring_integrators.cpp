@@ -115,8 +115,8 @@ void findPinnedBlocks(const SpringNetwork& net, ImplicitSolver<S>& w) {
 }
 
 template <class S>
-SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolver<S>& w, const Environment& env,
-                         double h) {
+SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolver<S>& w,
+                         const Environment& env, double h) {
     const std::size_t n = net.x.size();
     if (w.system.n != n || w.linkBlocks.size() != net.links.size()) {
         buildPattern(net, w);

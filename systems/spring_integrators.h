@@ -49,8 +49,8 @@ struct SpringWorkspace {
     std::vector<Vec3> xs, v2, v3, v4; ///< stage positions and velocities (midpoint, rk4)
     std::vector<Vec3> a1, a2, a3, a4; ///< stage accelerations
 
-    ImplicitSolver<float> single;     ///< implicit Euler, solver_precision = "float" (the default)
-    ImplicitSolver<double> precise;   ///< implicit Euler, solver_precision = "double"
+    ImplicitSolver<float> single;   ///< implicit Euler, solver_precision = "float" (the default)
+    ImplicitSolver<double> precise; ///< implicit Euler, solver_precision = "double"
     SolveStats lastSolve;
 };
 

@@ -42,6 +42,7 @@ void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrato
     net.cgTolerance = r.number("cg_tolerance", 1e-3, 1e-14, 0.5);
     net.cgMaxIterations = static_cast<int>(r.integer("cg_max_iterations", 200, 1, 100000));
     net.doublePrecisionSolve = r.choice("solver_precision", "float", {"float", "double"}) == "double";
+    net.blowUpFails = r.choice("on_blow_up", "fail", {"fail", "freeze"}) == "fail";
 }
 
 /// `pin`: a preset name or a list of mass indices.
@@ -345,13 +346,16 @@ void integrateSprings(World& world, const StepContext& ctx) {
                 for (Vec3& v : net.v) {
                     v = Vec3{};
                 }
-                world.resource<RunReport>().failures.push_back(
-                    "entity '" + name.value + "' blew up at frame " + std::to_string(ctx.frame) + " (t = " +
-                    std::to_string(ctx.time) + " s) under " + std::string(integratorName(net.integrator)) +
-                    ": its state became non-finite or faster than 10 km/s, so it is frozen from here on. "
-                    "Remedy: a smaller step (--set scene.dt=" +
-                    std::to_string(ctx.dt / 4) +
-                    ", or more scene.substeps) or integrator = \"implicit_euler\"");
+                RunReport& report = world.resource<RunReport>();
+                (net.blowUpFails ? report.failures : report.notes)
+                    .push_back(
+                        "entity '" + name.value + "' blew up at frame " + std::to_string(ctx.frame) +
+                        " (t = " + std::to_string(ctx.time) + " s) under " +
+                        std::string(integratorName(net.integrator)) +
+                        ": its state became non-finite or faster than 10 km/s, so it is frozen from here on. "
+                        "Remedy: a smaller step (--set scene.dt=" +
+                        std::to_string(ctx.dt / 4) +
+                        ", or more scene.substeps) or integrator = \"implicit_euler\"");
             }
         });
 }

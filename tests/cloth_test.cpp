@@ -240,7 +240,8 @@ stretch = 3000.0
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, DrapeOver,
-                         ::testing::Values("shape = \"sphere\"\nradius = 0.5", "shape = \"box\"\nhalf_extents = [0.4, 0.5, 0.4]",
+                         ::testing::Values("shape = \"sphere\"\nradius = 0.5",
+                                           "shape = \"box\"\nhalf_extents = [0.4, 0.5, 0.4]",
                                            "shape = \"capsule\"\nradius = 0.3\nheight = 0.6",
                                            "shape = \"cylinder\"\nradius = 0.4\nheight = 1.0",
                                            "shape = \"plane\"\nnormal = [0, 1, 0]"),

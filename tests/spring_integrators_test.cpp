@@ -34,8 +34,9 @@ std::unique_ptr<Simulation> oscillator(const std::string& integrator, double dt,
                     "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" + integrator +
                     "\"\nsolver_precision = \"double\"\ncg_tolerance = 1e-13\n"
                     "masses = [ { x = [0, 0, 0], pinned = true }, { x = [" +
-                    num(1.0 + o.a) + ", 0, 0], m = " + num(o.m) + " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " +
-                    num(o.k) + ", kd = " + num(o.c) + " } ]\n");
+                    num(1.0 + o.a) + ", 0, 0], m = " + num(o.m) +
+                    " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " + num(o.k) + ", kd = " + num(o.c) +
+                    " } ]\n");
 }
 
 const SpringNetwork& bob(Simulation& sim) {
@@ -92,7 +93,9 @@ INSTANTIATE_TEST_SUITE_P(Springs, IntegratorOrder,
                          ::testing::Values(OrderCase{"explicit_euler", 1}, OrderCase{"midpoint", 2},
                                            OrderCase{"rk4", 4}, OrderCase{"symplectic_euler", 1},
                                            OrderCase{"implicit_euler", 1}),
-                         [](const ::testing::TestParamInfo<OrderCase>& p) { return std::string(p.param.integrator); });
+                         [](const ::testing::TestParamInfo<OrderCase>& p) {
+                             return std::string(p.param.integrator);
+                         });
 
 TEST(Integrators, ExplicitEulerGainsEnergyAsTheTheorySays) {
     // on an undamped oscillator each explicit Euler step multiplies the energy by exactly 1 + (omega h)^2

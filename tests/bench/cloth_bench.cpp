@@ -1,80 +1,144 @@
-// Cloth benchmarks: one step of a hanging cloth, implicit (35 x 35 = the curtain, and 100 x 100) and
-// symplectic (35 x 35). The cloth is built by the same builder as the scenarios, pinned along its top row,
-// and brought into motion first (100 steps in gusty wind) so the solver sees a real, moving state.
-//   build/tests/bench/tumble_bench --benchmark_filter=Cloth --benchmark_repetitions=5
+// Cloth benchmarks on the curtain demo itself (demos/curtain.toml: 35 x 35, 2312 triangles, top row
+// pinned, gusty wind, implicit Euler at dt = 1/60): one step of the spring system, timed after 120
+// frames of billowing so the solver sees the state a user sees. The 100 x 100 and symplectic variants
+// are the same scene with overrides.
+//   build/tests/bench/tumble_bench --benchmark_filter=Curtain --benchmark_repetitions=5
 
-#include "components/force_field.h"
-#include "systems/spring_builders.h"
+#include "engine/simulation.h"
+#include "systems/builtin.h"
+#include "systems/spring_forces.h"
 #include "systems/spring_integrators.h"
+#include "systems/spring_system.h"
 
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/Sparse>
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
+#include <memory>
+#include <string>
 #include <vector>
 
 namespace tumble {
 namespace {
 
-struct ClothScene {
-    SpringNetwork net;
-    SpringWorkspace work;
-    std::vector<ForceField> fields;
-    Environment env;
-};
-
-ClothScene makeCloth(int n, Integrator integrator) {
-    ClothDef def;
-    def.rows = def.cols = n;
-    def.size = {2.0, 2.0};
-    def.mass = 1.0;
-    def.stretch = 5000.0;
-    def.shear = 500.0;
-    def.bend = 50.0;
-    def.damping = 0.02;
-    clothPinPreset("top-row", n, n, def.pins);
-    ClothScene s{buildCloth(def), {}, {}, {}};
-    s.net.integrator = integrator;
-    s.net.drag = 0.01;
-    s.net.cgTolerance = 1e-3;
-    ForceField wind;
-    wind.kind = FieldKind::Wind;
-    wind.strength = wind.current = {0.0, 0.0, 3.0};
-    wind.coefficient = 0.5;
-    if (std::getenv("NO_WIND") == nullptr) s.fields.push_back(wind);
-    s.env = {{0.0, -9.81, 0.0}, &s.fields};
-    return s;
+const Catalog& catalog() {
+    static const Catalog c = [] {
+        Catalog out;
+        registerBuiltinSystems(out);
+        return out;
+    }();
+    return c;
 }
 
-void runCloth(benchmark::State& state, int n, Integrator integrator) {
-    ClothScene s = makeCloth(n, integrator);
-    // symplectic Euler needs about 47 substeps per frame to stay stable on this cloth (BASELINES.md)
-    const double h = integrator == Integrator::SymplecticEuler ? 1.0 / 60.0 / 47.0 : 1.0 / 60.0;
-    for (int i = 0; i < 100; ++i) {
-        stepNetwork(s.net, s.work, s.env, h);
+void curtainStep(benchmark::State& state, std::vector<std::string> overrides, int warmFrames) {
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
+    Simulation sim(catalog(), path, readScenarioFile(path), overrides);
+    for (int i = 0; i < warmFrames; ++i) {
+        sim.runFrame();
     }
+    // time the spring system alone, one fixed step at a time, at the scene's dt
+    StepContext ctx;
+    ctx.dt = sim.scene().dt;
+    ctx.seed = sim.scene().seed;
     double iterations = 0.0;
     for (auto _ : state) {
-        stepNetwork(s.net, s.work, s.env, h);
-        iterations += s.work.lastSolve.iterations;
+        integrateSprings(sim.world(), ctx);
+        ctx.time += ctx.dt;
+        ++ctx.step;
+        state.PauseTiming();
+        sim.world().view<SpringWorkspace>().each(
+            [&](Entity, SpringWorkspace& w) { iterations += w.lastSolve.iterations; });
+        state.ResumeTiming();
     }
     state.counters["cg_iterations"] = iterations / static_cast<double>(state.iterations());
-    state.counters["triangles"] = static_cast<double>(s.net.triangles.size());
 }
 
-void BM_ClothImplicit35(benchmark::State& state) {
-    runCloth(state, 35, Integrator::ImplicitEuler);
+void BM_CurtainImplicit35(benchmark::State& state) {
+    curtainStep(state, {}, 120);
 }
-BENCHMARK(BM_ClothImplicit35)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CurtainImplicit35)->Unit(benchmark::kMillisecond)->Iterations(300);
 
-void BM_ClothImplicit100(benchmark::State& state) {
-    runCloth(state, 100, Integrator::ImplicitEuler);
+void BM_CurtainImplicit100(benchmark::State& state) {
+    curtainStep(state, {"curtain.cloth.rows=100", "curtain.cloth.cols=100"}, 120);
 }
-BENCHMARK(BM_ClothImplicit100)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CurtainImplicit100)->Unit(benchmark::kMillisecond)->Iterations(30);
 
-void BM_ClothSymplectic35(benchmark::State& state) {
-    runCloth(state, 35, Integrator::SymplecticEuler);
+// symplectic Euler needs about 47 substeps per 60 fps frame on this cloth (BASELINES.md): one such step
+void BM_CurtainSymplectic35(benchmark::State& state) {
+    curtainStep(state,
+                {"curtain.cloth.integrator=symplectic_euler", "scene.dt=0.000354609929", "scene.substeps=47"},
+                20);
 }
-BENCHMARK(BM_ClothSymplectic35)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CurtainSymplectic35)->Unit(benchmark::kMillisecond)->Iterations(20000);
+
+// the plain way, for the ratio (BASELINES.md measured it at about 29 ms): Eigen triplet assembly of the
+// same implicit Euler system and Eigen's Jacobi-preconditioned CG from zero to 1e-6, on the same state
+void BM_CurtainPlainEigen35(benchmark::State& state) {
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
+    Simulation sim(catalog(), path, readScenarioFile(path), {});
+    for (int i = 0; i < 120; ++i) {
+        sim.runFrame();
+    }
+    const SpringNetwork* found = nullptr;
+    sim.world().view<const SpringNetwork>().each([&](Entity, const SpringNetwork& n) { found = &n; });
+    const SpringNetwork& net = *found;
+    const double h = sim.scene().dt;
+    const Environment env{{0.0, -9.81, 0.0}, nullptr};
+    const auto n = static_cast<Eigen::Index>(3 * net.x.size());
+    std::vector<Vec3> f;
+    double iterations = 0.0;
+    for (auto _ : state) {
+        springForces(net, env, net.x, net.v, f);
+        std::vector<Eigen::Triplet<double>> triplets;
+        Eigen::VectorXd b(n);
+        // pinned masses: identity rows and columns, zero right-hand side
+        auto add = [&](std::size_t row, std::size_t col, double e) {
+            if (!net.pinned[row / 3] && !net.pinned[col / 3]) {
+                triplets.emplace_back(static_cast<int>(row), static_cast<int>(col), e);
+            }
+        };
+        for (std::size_t i = 0; i < net.x.size(); ++i) {
+            const double diag = net.pinned[i] ? 1.0 : 1.0 / net.invMass[i] + h * net.drag;
+            for (std::size_t c = 0; c < 3; ++c) {
+                triplets.emplace_back(static_cast<int>(3 * i + c), static_cast<int>(3 * i + c), diag);
+            }
+            const double fi[3] = {h * f[i].x, h * f[i].y, h * f[i].z};
+            for (std::size_t c = 0; c < 3; ++c) {
+                b[static_cast<Eigen::Index>(3 * i + c)] = net.pinned[i] ? 0.0 : fi[c];
+            }
+        }
+        for (const SpringLink& s : net.links) {
+            Mat3 k;
+            Vec3 u;
+            if (!springStiffness(s, net.x[s.a], net.x[s.b], k, u)) {
+                continue;
+            }
+            const Vec3 kdv = k * (net.v[s.b] - net.v[s.a]);
+            const double change[3] = {kdv.x, kdv.y, kdv.z}, uu[3] = {u.x, u.y, u.z};
+            for (std::size_t r = 0; r < 3; ++r) {
+                b[static_cast<Eigen::Index>(3 * s.a + r)] += net.pinned[s.a] ? 0.0 : h * h * change[r];
+                b[static_cast<Eigen::Index>(3 * s.b + r)] -= net.pinned[s.b] ? 0.0 : h * h * change[r];
+                for (std::size_t c = 0; c < 3; ++c) {
+                    const double e = h * s.kd * uu[r] * uu[c] + h * h * k.m[3 * r + c];
+                    add(3 * s.a + r, 3 * s.a + c, e);
+                    add(3 * s.b + r, 3 * s.b + c, e);
+                    add(3 * s.a + r, 3 * s.b + c, -e);
+                    add(3 * s.b + r, 3 * s.a + c, -e);
+                }
+            }
+        }
+        Eigen::SparseMatrix<double> a(n, n);
+        a.setFromTriplets(triplets.begin(), triplets.end());
+        Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg;
+        cg.setTolerance(1e-6);
+        cg.compute(a);
+        Eigen::VectorXd dv = cg.solve(b);
+        benchmark::DoNotOptimize(dv.data());
+        iterations += static_cast<double>(cg.iterations());
+    }
+    state.counters["cg_iterations"] = iterations / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_CurtainPlainEigen35)->Unit(benchmark::kMillisecond)->Iterations(10);
 
 } // namespace
 } // namespace tumble
