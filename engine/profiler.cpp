@@ -124,26 +124,11 @@ void Profiler::writeTrace(std::ostream& out) const {
     JsonWriter w(buf);
     w.beginObject().key("displayTimeUnit").value("ms").key("traceEvents").beginArray();
     // name the one process and thread so Perfetto labels the track
-    w.beginObject()
-        .key("name")
-        .value("process_name")
-        .key("ph")
-        .value("M")
-        .key("pid")
-        .value(1)
-        .key("tid")
-        .value(1);
-    w.key("args").beginObject().key("name").value("tumble").endObject().endObject();
-    w.beginObject()
-        .key("name")
-        .value("thread_name")
-        .key("ph")
-        .value("M")
-        .key("pid")
-        .value(1)
-        .key("tid")
-        .value(1);
-    w.key("args").beginObject().key("name").value("simulation").endObject().endObject();
+    for (const auto& [what, name] :
+         {std::pair{"process_name", "tumble"}, std::pair{"thread_name", "simulation"}}) {
+        w.beginObject().key("name").value(what).key("ph").value("M").key("pid").value(1).key("tid").value(1);
+        w.key("args").beginObject().key("name").value(name).endObject().endObject();
+    }
     for (const TraceEvent& e : m_events) {
         w.beginObject();
         if (e.slot < 0) {

@@ -73,6 +73,10 @@ struct OrderCase {
     int order;
 };
 
+void PrintTo(const OrderCase& c, std::ostream* os) {
+    *os << c.integrator << " (order " << c.order << ")";
+}
+
 class IntegratorOrder : public ::testing::TestWithParam<OrderCase> {};
 
 TEST_P(IntegratorOrder, DampedOscillatorErrorShrinksAtTheIntegratorsOrder) {
