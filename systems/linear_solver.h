@@ -40,6 +40,10 @@ public:
     void apply(const std::vector<Vec>& r, std::vector<Vec>& z);
     /// Number of levels, the finest included.
     std::size_t levels() const { return m_levels.size() + 1; }
+    /// Rows and stored blocks of a coarse level (1 = the first coarse one).
+    std::pair<std::uint32_t, std::size_t> levelSize(std::size_t level) const {
+        return {m_levels[level - 1].a.n, m_levels[level - 1].a.col.size()};
+    }
 
 private:
     struct Level {
