@@ -7,8 +7,8 @@
 
 namespace tumble {
 
-void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
-                  const std::vector<Vec3>& v, std::vector<Vec3>& f) {
+void externalForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
+                    const std::vector<Vec3>& v, std::vector<Vec3>& f) {
     const std::size_t n = x.size();
     f.resize(n);
     // per mass: gravity, drag, fields (wind on cloth goes through the triangles below)
@@ -30,19 +30,6 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
             }
         }
         f[i] = fi;
-    }
-    // springs
-    for (const SpringLink& s : net.links) {
-        const Vec3 d = x[s.b] - x[s.a];
-        const double len = length(d);
-        if (len <= 1e-12) {
-            continue; // coincident masses: no direction to push along
-        }
-        const Vec3 u = d * (1.0 / len);
-        const double magnitude = s.k * (len - s.rest) + s.kd * dot(v[s.b] - v[s.a], u);
-        const Vec3 fa = u * magnitude;
-        f[s.a] += fa;
-        f[s.b] -= fa;
     }
     // wind on cloth: per triangle, along its normal, shared by its corners
     if (surfaceWind && env.fields) {
@@ -68,9 +55,25 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
     }
 }
 
-bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u) {
+void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
+                  const std::vector<Vec3>& v, std::vector<Vec3>& f) {
+    externalForces(net, env, x, v, f);
+    for (const SpringLink& s : net.links) {
+        const Vec3 d = x[s.b] - x[s.a];
+        const double len = length(d);
+        if (len <= 1e-12) {
+            continue; // coincident masses: no direction to push along
+        }
+        const Vec3 u = d * (1.0 / len);
+        const Vec3 fa = u * (s.k * (len - s.rest) + s.kd * dot(v[s.b] - v[s.a], u));
+        f[s.a] += fa;
+        f[s.b] -= fa;
+    }
+}
+
+bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len) {
     const Vec3 d = xb - xa;
-    const double len = length(d);
+    len = length(d);
     if (len <= 1e-12) {
         return false;
     }

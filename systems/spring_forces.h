@@ -25,13 +25,17 @@ struct Environment {
     const std::vector<ForceField>* fields = nullptr; ///< the scene's force fields, or none
 };
 
+/// Gravity, drag and force fields on every mass (f is overwritten).
+void externalForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
+                    const std::vector<Vec3>& v, std::vector<Vec3>& f);
+
 /// Net force on every mass for positions x and velocities v (pinned masses get whatever acts on them).
 void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
                   const std::vector<Vec3>& v, std::vector<Vec3>& f);
 
-/// The stiffness block K of a spring (see the header comment) and its unit direction from a to b.
+/// The stiffness block K of a spring (see the header comment), its unit direction from a to b and its length.
 /// Returns false for coincident masses (no direction).
-bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u);
+bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len);
 
 /// Linear damping on each mass from drag and fields, N s/m (dF/dv = -c I).
 double massDamping(const SpringNetwork& net, const Environment& env, const Vec3& x);

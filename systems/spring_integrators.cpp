@@ -125,7 +125,8 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         findPinnedBlocks(net, w);
     }
     BlockMatrix<S>& a = w.system;
-    springForces(net, env, net.x, net.v, work.f);
+    // the springs' forces are added below, with their Jacobians, from one length and direction each
+    externalForces(net, env, net.x, net.v, work.f);
 
     // A = M + h c I + sum over springs of (h kd uu^T + h^2 K) in the +/- pattern, computed in double and
     // stored in S; b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative to b
@@ -140,12 +141,17 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         const SpringLink& s = net.links[k];
         Mat3 stiff;
         Vec3 u;
-        if (!springStiffness(s, net.x[s.a], net.x[s.b], stiff, u)) {
+        double len = 0.0;
+        if (!springStiffness(s, net.x[s.a], net.x[s.b], stiff, u, len)) {
             a.val[w.linkBlocks[k][0]] = Mat3T<S>{};
             a.val[w.linkBlocks[k][1]] = Mat3T<S>{};
             continue;
         }
-        const Vec3 kdv = stiff * (net.v[s.b] - net.v[s.a]);
+        const Vec3 dvel = net.v[s.b] - net.v[s.a];
+        const Vec3 fa = u * (s.k * (len - s.rest) + s.kd * dot(dvel, u));
+        rhs[s.a] += fa * h;
+        rhs[s.b] -= fa * h;
+        const Vec3 kdv = stiff * dvel;
         rhs[s.a] += kdv * (h * h);
         rhs[s.b] -= kdv * (h * h);
         Mat3 block = Mat3::outer(u, h * s.kd);
