@@ -19,7 +19,7 @@ namespace {
 constexpr double kHuge = 1e9; // bound on coordinates, m
 constexpr std::string_view kSections[] = {"scene", "budget", "camera", "render"};
 // components of the scenario format (CONTRACT.md) that arrive with later work
-constexpr std::string_view kPlanned[] = {"emitter", "rigid_body_2d", "water"};
+constexpr std::string_view kPlanned[] = {"rigid_body_2d", "water"};
 
 bool validName(std::string_view s) {
     if (s.empty() || s.size() > 64) {

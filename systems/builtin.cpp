@@ -2,6 +2,7 @@
 
 #include "systems/collision_system.h"
 #include "systems/force_field_system.h"
+#include "systems/particle_system.h"
 #include "systems/spring_system.h"
 
 namespace tumble {
@@ -9,6 +10,7 @@ namespace tumble {
 void registerBuiltinSystems(Catalog& catalog) {
     // the fixed phase runs in this order
     registerForceFieldSystem(catalog);
+    registerParticleSystem(catalog);
     registerSpringSystem(catalog);
     registerCollisionSystem(catalog);
 }

@@ -1,5 +1,6 @@
 #include "systems/collision_system.h"
 
+#include "components/particles.h"
 #include "components/spring_network.h"
 #include "components/transform.h"
 #include "engine/scene.h"
@@ -12,6 +13,7 @@ namespace tumble {
 namespace {
 
 constexpr double kHuge = 1e9;
+constexpr int kContactPasses = 4; // projections per step: enough for a point wedged between two bodies
 
 /// Distance and normal of a point relative to an axis-aligned box of half extents h centred at 0.
 double boxDistance(const Vec3& d, const Vec3& h, Vec3& normal) {
@@ -118,38 +120,117 @@ void collideSprings(World& world, const StepContext&) {
         if (net.frozen) {
             return;
         }
-        for (const RigidBody& body : bodies->values()) {
-            if (body.mass > 0.0) {
+        for (std::size_t i = 0; i < net.x.size(); ++i) {
+            if (net.pinned[i]) {
                 continue;
             }
-            const double mu = std::sqrt(body.friction * net.friction); // combined as Bullet does
-            for (std::size_t i = 0; i < net.x.size(); ++i) {
-                if (net.pinned[i]) {
-                    continue;
+            // a few passes, so that a mass wedged between two bodies ends up outside both
+            for (int pass = 0; pass < kContactPasses; ++pass) {
+                bool moved = false;
+                for (const RigidBody& body : bodies->values()) {
+                    Vec3 n;
+                    const double d = body.mass > 0.0 ? 1e300 : signedDistance(body, net.x[i], n);
+                    if (d >= net.thickness) {
+                        continue;
+                    }
+                    moved = true;
+                    net.x[i] += n * (net.thickness - d);
+                    const double vn = dot(net.v[i], n);
+                    if (vn >= 0.0) {
+                        continue; // already leaving the surface
+                    }
+                    // the velocity into the surface stops (or bounces by restitution); sliding loses to
+                    // friction
+                    const double mu = std::sqrt(body.friction * net.friction); // combined as Bullet does
+                    Vec3 vt = net.v[i] - n * vn;
+                    const double speed = length(vt);
+                    const double slowdown = mu * -vn;
+                    vt = speed <= slowdown ? Vec3{} : vt * (1.0 - slowdown / speed);
+                    net.v[i] = vt - n * (vn * body.restitution);
                 }
-                Vec3 n;
-                const double d = signedDistance(body, net.x[i], n);
-                if (d >= net.thickness) {
-                    continue;
+                if (!moved) {
+                    break;
                 }
-                net.x[i] += n * (net.thickness - d);
-                const double vn = dot(net.v[i], n);
-                if (vn >= 0.0) {
-                    continue; // already leaving the surface
-                }
-                Vec3 vt = net.v[i] - n * vn;
-                const double speed = length(vt);
-                const double slowdown = mu * -vn;
-                vt = speed <= slowdown ? Vec3{} : vt * (1.0 - slowdown / speed);
-                net.v[i] = vt - n * (vn * body.restitution);
             }
+        }
+    });
+}
+
+void collideParticles(World& world, const StepContext&) {
+    const Pool<RigidBody>* bodies = world.findPool<RigidBody>();
+    if (!bodies || bodies->size() == 0) {
+        return;
+    }
+    world.view<ParticleEmitter>().each([&](Entity, ParticleEmitter& e) {
+        if (!e.def.collide) {
+            return;
+        }
+        ParticlePool& p = e.pool;
+        for (std::uint32_t i = 0; i < p.count; ++i) {
+            Vec3 x{p.px[i], p.py[i], p.pz[i]};
+            Vec3 v{p.vx[i], p.vy[i], p.vz[i]};
+            // a few passes, so that a particle wedged between two bodies ends up outside both
+            bool touched = false;
+            for (int pass = 0; pass < kContactPasses; ++pass) {
+                bool moved = false;
+                for (const RigidBody& body : bodies->values()) {
+                    Vec3 n;
+                    const double d = body.mass > 0.0 ? 1.0 : signedDistance(body, x, n);
+                    if (d >= 0.0) {
+                        continue;
+                    }
+                    moved = touched = true;
+                    x -= n * d;
+                    // the normal speed reversed by restitution, the sliding slowed by friction
+                    const double vn = dot(v, n);
+                    if (vn < 0.0) {
+                        const double mu = std::sqrt(body.friction * e.def.friction);
+                        const double bounce = std::sqrt(body.restitution * e.def.restitution);
+                        Vec3 vt = v - n * vn;
+                        const double speed = length(vt);
+                        const double slowdown = mu * -vn * (1.0 + bounce);
+                        vt = speed <= slowdown ? Vec3{} : vt * (1.0 - slowdown / speed);
+                        v = vt - n * (vn * bounce);
+                    }
+                }
+                if (!moved) {
+                    break;
+                }
+            }
+            if (!touched) {
+                continue;
+            }
+            // stored in float, the point may round a hair inside a surface: nudge it out along the normals
+            for (int k = 0; k < 8; ++k) {
+                bool inside = false;
+                for (const RigidBody& body : bodies->values()) {
+                    Vec3 n;
+                    const Vec3 stored{float(x.x), float(x.y), float(x.z)};
+                    if (body.mass == 0.0 && signedDistance(body, stored, n) < 0.0) {
+                        x += n * (1e-6 * double(1 << k));
+                        inside = true;
+                    }
+                }
+                if (!inside) {
+                    break;
+                }
+            }
+            p.px[i] = float(x.x);
+            p.py[i] = float(x.y);
+            p.pz[i] = float(x.z);
+            p.vx[i] = float(v.x);
+            p.vy[i] = float(v.y);
+            p.vz[i] = float(v.z);
         }
     });
 }
 
 void registerCollisionSystem(Catalog& catalog) {
     catalog.addComponent({"rigid_body", loadRigidBody});
-    catalog.addSystem(Phase::Fixed, "collisions", collideSprings);
+    catalog.addSystem(Phase::Fixed, "collisions", [](World& world, const StepContext& ctx) {
+        collideSprings(world, ctx);
+        collideParticles(world, ctx);
+    });
 }
 
 } // namespace tumble

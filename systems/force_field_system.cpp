@@ -85,8 +85,11 @@ Vec3 fieldForce(const ForceField& f, const Vec3& x, const Vec3& v, double mass) 
         if (!within(f, radial)) {
             return {};
         }
-        const Vec3 air = cross(f.axis, radial) * f.strength.x;
-        return (air - v) * f.coefficient;
+        // the pull towards the axis that keeps a body turning at omega on its circle, plus the air's drag
+        // towards turning at omega (coefficient 0: a pure central force, which conserves the radius)
+        const double omega = f.strength.x;
+        const Vec3 air = cross(f.axis, radial) * omega;
+        return radial * (-omega * omega * mass) + (air - v) * f.coefficient;
     }
     case FieldKind::Point: {
         const Vec3 d = f.origin - x;

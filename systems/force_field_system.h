@@ -7,8 +7,11 @@
 //   three sines whose phases come from the scene seed. A point mass feels coefficient (w - v); a cloth
 //   triangle feels coefficient * area * ((w - v) . n) n, so a curtain billows.
 // - drag: -strength.x v.
-// - vortex: air turning about `axis` through the field's position at strength.x rad/s; a mass feels
-//   coefficient (u - v) with u = omega axis x r, within `radius` (0 = everywhere).
+// - vortex: turning about `axis` through the field's position at omega = strength.x rad/s, within
+//   `radius` (0 = everywhere): a mass feels the pull -m omega^2 r towards the axis, which keeps a body
+//   circling at omega on its circle, plus coefficient (u - v), u = omega axis x r, the air's drag that
+//   spins bodies up to omega. With coefficient 0 it is a central force and the radius of a circling body
+//   is conserved.
 // - point: an attractor pulling strength.x * m / d^2 (softened within 0.1 m), within `radius`.
 
 #include "components/force_field.h"

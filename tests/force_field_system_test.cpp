@@ -35,11 +35,16 @@ TEST(ForceField, VortexTurnsAboutItsAxisWithinItsRadius) {
     vortex.axis = {0.0, 1.0, 0.0};
     vortex.radius = 3.0;
     vortex.coefficient = 1.0;
-    // at (1, 5, 0) the air moves along axis x r = (0, 1, 0) x (1, 0, 0) = (0, 0, -1), at 2 m/s
+    // at (1, 5, 0): the pull -m omega^2 r = (-4, 0, 0) for 1 kg, and the air moving along
+    // axis x r = (0, 1, 0) x (1, 0, 0) = (0, 0, -1) at 2 m/s drags a body at rest towards it
     const Vec3 f = fieldForce(vortex, {1.0, 5.0, 0.0}, {}, 1.0);
-    EXPECT_NEAR(f.x, 0.0, 1e-15);
+    EXPECT_NEAR(f.x, -4.0, 1e-15);
     EXPECT_NEAR(f.y, 0.0, 1e-15);
     EXPECT_NEAR(f.z, -2.0, 1e-15);
+    // moving with the air at 2 m/s, only the central pull remains
+    const Vec3 g = fieldForce(vortex, {1.0, 5.0, 0.0}, {0.0, 0.0, -2.0}, 1.0);
+    EXPECT_NEAR(g.z, 0.0, 1e-15);
+    EXPECT_NEAR(g.x, -4.0, 1e-15);
     EXPECT_EQ(fieldForce(vortex, {4.0, 0.0, 0.0}, {}, 1.0), (Vec3{})) << "outside the radius";
 }
 

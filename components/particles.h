@@ -1,0 +1,82 @@
+#pragma once
+// A particle emitter and the particles it has born. One entity holds the emitter's settings, its random
+// stream and its pool; the pool is structure-of-arrays (one float array per quantity), so the update loop
+// streams through packed floats, and a dead particle is swap-removed (the last one takes its place).
+//
+// Particles are light: float state, no mass of their own (forces act on them as on a 1 kg body), colour
+// and size derived from age over lifetime, so the pool holds nothing the renderer cannot compute.
+
+#include "engine/math.h"
+#include "engine/random.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace tumble {
+
+/// Where an emitter places new particles (CONTRACT.md `shape`).
+enum class EmitterShape : std::uint8_t { Point, Sphere, Disc, Box };
+
+/// The live particles of one emitter, as parallel arrays; entry i of every array is particle i.
+struct ParticlePool {
+    std::vector<float> px, py, pz; ///< m, positions
+    std::vector<float> vx, vy, vz; ///< m/s, velocities
+    std::vector<float> age;        ///< s since birth
+    std::vector<float> lifetime;   ///< s; the particle dies when age reaches it
+    std::uint32_t count = 0;       ///< live particles (the arrays are sized to the emitter's capacity)
+    std::vector<std::uint32_t> deadGroups; ///< scratch of the update (not state): groups of four with a death
+
+    /// Sizes every array for `capacity` particles, once: the update never allocates.
+    void reserve(std::uint32_t capacity);
+};
+
+/// Settings of an emitter (read from the scenario; events may change `rate`).
+struct EmitterDef {
+    EmitterShape shape = EmitterShape::Point;
+    double radius = 0.0;                      ///< m, sphere and disc
+    Vec3 halfExtents;                         ///< m, box
+    Vec3 direction{0.0, 1.0, 0.0};            ///< unit, the cone's axis (and the disc's normal)
+    double spreadDeg = 15.0;                  ///< half-angle of the cone of directions
+    double rate = 0.0;                        ///< particles per second
+    std::uint32_t burst = 0;                  ///< particles at t = 0 (and the default of a burst event)
+    std::array<double, 2> lifetime{2.0, 3.0}; ///< s, uniform in range
+    std::array<double, 2> speed{4.0, 6.0};    ///< m/s, uniform in range
+    std::uint32_t maxParticles = 100000;      ///< capacity; births beyond it are dropped and counted
+    double drag = 0.0;                        ///< 1/s, acceleration -drag v
+    bool collide = true;                      ///< against static colliders
+    double restitution = 0.4;                 ///< of the normal speed, on collision
+    double friction = 0.3;                    ///< Coulomb coefficient, on collision
+    std::array<float, 4> colorStart{1.0f, 1.0f, 1.0f, 1.0f}; ///< RGBA at birth
+    std::array<float, 4> colorEnd{1.0f, 1.0f, 1.0f, 0.0f};   ///< RGBA at death
+    std::array<float, 2> size{0.05f, 0.05f};                 ///< m, at birth and at death
+};
+
+/// An emitter with its particles and its own random stream.
+struct ParticleEmitter {
+    EmitterDef def;
+    Vec3 origin; ///< m, the entity's position
+    ParticlePool pool;
+    Rng rng;                        ///< every random draw of this emitter, seeded from the scene seed
+    double rateClock = 0.0;         ///< s of emission at the current rate
+    std::uint64_t rateBorn = 0;     ///< particles born by the rate since the rate was last set
+    std::uint64_t pendingBurst = 0; ///< particles to burst at the start of the next step
+    std::uint64_t born = 0;         ///< all particles born so far
+    std::uint64_t dropped = 0;      ///< births refused because the pool was full
+};
+
+/// Linear interpolation of the start and end colour at life fraction t in [0, 1].
+inline std::array<float, 4> particleColor(const EmitterDef& def, float t) {
+    std::array<float, 4> c{};
+    for (std::size_t i = 0; i < 4; ++i) {
+        c[i] = def.colorStart[i] + (def.colorEnd[i] - def.colorStart[i]) * t;
+    }
+    return c;
+}
+
+/// Size (m) at life fraction t in [0, 1].
+inline float particleSize(const EmitterDef& def, float t) {
+    return def.size[0] + (def.size[1] - def.size[0]) * t;
+}
+
+} // namespace tumble

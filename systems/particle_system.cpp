@@ -1,0 +1,370 @@
+#include "systems/particle_system.h"
+
+#include "components/force_field.h"
+#include "components/name.h"
+#include "components/transform.h"
+#include "engine/scene.h"
+#include "systems/force_field_system.h"
+
+#include <emmintrin.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace tumble {
+
+namespace {
+
+constexpr double kHuge = 1e9;
+constexpr std::int64_t kMaxParticles = 5'000'000; // 160 MB of state at most per emitter
+
+/// Two unit vectors completing `d` to an orthonormal basis (t1, t2, d).
+void basis(const Vec3& d, Vec3& t1, Vec3& t2) {
+    const Vec3 helper = std::abs(d.x) < 0.9 ? Vec3{1.0, 0.0, 0.0} : Vec3{0.0, 1.0, 0.0};
+    t1 = cross(helper, d);
+    t1 = t1 * (1.0 / length(t1));
+    t2 = cross(d, t1);
+}
+
+/// A uniformly random point of the unit disc (rejection from the square: no trigonometry).
+void unitDisc(Rng& rng, double& a, double& b) {
+    do {
+        a = 2.0 * rng.uniform() - 1.0;
+        b = 2.0 * rng.uniform() - 1.0;
+    } while (a * a + b * b > 1.0);
+}
+
+void loadEmitter(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
+    ParticleEmitter e;
+    EmitterDef& d = e.def;
+    d.rate = r.number("rate", 0.0, 0.0, 1e8);
+    d.burst = static_cast<std::uint32_t>(r.integer("burst", 0, 0, kMaxParticles));
+    const auto life = r.range("lifetime", {2.0, 3.0}, 1e-6, 1e6);
+    d.lifetime = {life.first, life.second};
+    const std::string shape = r.choice("shape", "point", {"point", "sphere", "disc", "box"});
+    d.shape = shape == "point"    ? EmitterShape::Point
+              : shape == "sphere" ? EmitterShape::Sphere
+              : shape == "disc"   ? EmitterShape::Disc
+                                  : EmitterShape::Box;
+    if (d.shape == EmitterShape::Sphere || d.shape == EmitterShape::Disc) {
+        d.radius = r.number("radius", 0.5, 0.0, kHuge);
+    }
+    if (d.shape == EmitterShape::Box) {
+        const auto h = r.vector<3>("half_extents", {0.5, 0.5, 0.5}, 0.0, kHuge);
+        d.halfExtents = {h[0], h[1], h[2]};
+    }
+    const auto dir = r.vector<3>("direction", {0.0, 1.0, 0.0}, -kHuge, kHuge);
+    const Vec3 direction{dir[0], dir[1], dir[2]};
+    if (length(direction) < 1e-12) {
+        r.fail("direction", "'direction' in " + r.where() + " must not be zero");
+    }
+    d.direction = direction * (1.0 / length(direction));
+    d.spreadDeg = r.number("spread_deg", 15.0, 0.0, 180.0);
+    const auto speed = r.range("speed", {4.0, 6.0}, 0.0, 1e5);
+    d.speed = {speed.first, speed.second};
+    d.maxParticles = static_cast<std::uint32_t>(r.integer("max_particles", 100000, 1, kMaxParticles));
+    d.drag = r.number("drag", 0.0, 0.0, 1e3);
+    d.collide = r.boolean("collide", true);
+    d.restitution = r.number("restitution", 0.4, 0.0, 1.0);
+    d.friction = r.number("friction", 0.3, 0.0, 100.0);
+    if (const toml::node* color = r.node("color")) {
+        const toml::array* pair = color->as_array();
+        if (!pair || pair->size() != 2) {
+            r.fail("color", "'color' in " + r.where() + " is [[r, g, b, a], [r, g, b, a]]: start and end");
+        }
+        double c[4];
+        r.readNumbers(*pair->get(0), "color", c, 4, 0.0, 1.0);
+        d.colorStart = {float(c[0]), float(c[1]), float(c[2]), float(c[3])};
+        r.readNumbers(*pair->get(1), "color", c, 4, 0.0, 1.0);
+        d.colorEnd = {float(c[0]), float(c[1]), float(c[2]), float(c[3])};
+    }
+    // [start, end] (it may shrink), or one number for both
+    if (const toml::node* sizeNode = r.node("size")) {
+        if (sizeNode->is_number()) {
+            const auto s = static_cast<float>(r.number("size", 0.05, 0.0, 1e3));
+            d.size = {s, s};
+        } else {
+            double s[2];
+            r.readNumbers(*sizeNode, "size", s, 2, 0.0, 1e3);
+            d.size = {float(s[0]), float(s[1])};
+        }
+    }
+    e.origin = world.get<Transform>(entity).position;
+    e.rng = Rng(streamSeed(scene.seed, "emitter:" + world.get<Name>(entity).value));
+    e.pool.reserve(d.maxParticles);
+    e.pendingBurst = d.burst;
+    world.emplace<ParticleEmitter>(entity, std::move(e));
+}
+
+void dumpEmitter(const ParticleEmitter& e, JsonWriter& w) {
+    const ParticlePool& p = e.pool;
+    w.key("count").value(static_cast<std::uint64_t>(p.count)).key("born").value(e.born);
+    w.key("dropped").value(e.dropped);
+    w.key("x").beginArray();
+    for (std::uint32_t i = 0; i < p.count; ++i) {
+        const double xyz[3] = {p.px[i], p.py[i], p.pz[i]};
+        w.numbers(xyz);
+    }
+    w.endArray().key("v").beginArray();
+    for (std::uint32_t i = 0; i < p.count; ++i) {
+        const double xyz[3] = {p.vx[i], p.vy[i], p.vz[i]};
+        w.numbers(xyz);
+    }
+    w.endArray();
+}
+
+void hashEmitter(const ParticleEmitter& e, Hasher& h) {
+    const ParticlePool& p = e.pool;
+    h.add(p.count);
+    for (const std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+        h.bytes(a->data(), std::size_t(p.count) * sizeof(float));
+    }
+    h.add(e.rng);
+    h.add(e.def.rate);
+    h.add(e.rateClock);
+    h.add(e.rateBorn);
+    h.add(e.pendingBurst);
+    h.add(e.born);
+    h.add(e.dropped);
+}
+
+bool hasEmitter(const World& w, Entity e) {
+    return w.has<ParticleEmitter>(e);
+}
+
+/// Velocity changes from the force fields, per particle (a 1 kg body).
+void applyFields(ParticlePool& p, const std::vector<ForceField>& fields, float dt) {
+    for (std::uint32_t i = 0; i < p.count; ++i) {
+        const Vec3 x{p.px[i], p.py[i], p.pz[i]};
+        const Vec3 v{p.vx[i], p.vy[i], p.vz[i]};
+        Vec3 a;
+        for (const ForceField& f : fields) {
+            a += fieldForce(f, x, v, 1.0);
+        }
+        p.vx[i] += float(a.x * dt);
+        p.vy[i] += float(a.y * dt);
+        p.vz[i] += float(a.z * dt);
+    }
+}
+
+} // namespace
+
+void ParticlePool::reserve(std::uint32_t capacity) {
+    for (std::vector<float>* a : {&px, &py, &pz, &vx, &vy, &vz, &age, &lifetime}) {
+        a->assign(capacity, 0.0f);
+    }
+    deadGroups.reserve(capacity / 4 + 1);
+}
+
+void spawnParticles(ParticleEmitter& e, std::uint64_t n) {
+    const EmitterDef& d = e.def;
+    ParticlePool& p = e.pool;
+    const auto capacity = static_cast<std::uint32_t>(p.px.size());
+    Vec3 t1, t2;
+    basis(d.direction, t1, t2);
+    const double cosSpread = std::cos(d.spreadDeg * std::numbers::pi / 180.0);
+    for (std::uint64_t k = 0; k < n; ++k) {
+        if (p.count == capacity) {
+            e.dropped += n - k;
+            return;
+        }
+        // where: the shape, around the emitter's position
+        Vec3 at = e.origin;
+        double a = 0.0, b = 0.0;
+        switch (d.shape) {
+        case EmitterShape::Point:
+            break;
+        case EmitterShape::Sphere: {
+            double c = 0.0;
+            do {
+                a = 2.0 * e.rng.uniform() - 1.0;
+                b = 2.0 * e.rng.uniform() - 1.0;
+                c = 2.0 * e.rng.uniform() - 1.0;
+            } while (a * a + b * b + c * c > 1.0);
+            at += Vec3{a, b, c} * d.radius;
+            break;
+        }
+        case EmitterShape::Disc:
+            unitDisc(e.rng, a, b);
+            at += (t1 * a + t2 * b) * d.radius;
+            break;
+        case EmitterShape::Box:
+            at += Vec3{d.halfExtents.x * (2.0 * e.rng.uniform() - 1.0),
+                       d.halfExtents.y * (2.0 * e.rng.uniform() - 1.0),
+                       d.halfExtents.z * (2.0 * e.rng.uniform() - 1.0)};
+            break;
+        }
+        // which way: uniform over the spherical cap of the cone (cos theta uniform), azimuth from the disc
+        const double z = 1.0 - e.rng.uniform() * (1.0 - cosSpread);
+        const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+        unitDisc(e.rng, a, b);
+        const double s = std::sqrt(a * a + b * b);
+        const double ca = s > 0.0 ? a / s : 1.0, sa = s > 0.0 ? b / s : 0.0;
+        const Vec3 dir = t1 * (r * ca) + t2 * (r * sa) + d.direction * z;
+        const double speed = e.rng.uniform(d.speed[0], d.speed[1]);
+        const double life = e.rng.uniform(d.lifetime[0], d.lifetime[1]);
+
+        const std::uint32_t i = p.count++;
+        p.px[i] = float(at.x);
+        p.py[i] = float(at.y);
+        p.pz[i] = float(at.z);
+        p.vx[i] = float(dir.x * speed);
+        p.vy[i] = float(dir.y * speed);
+        p.vz[i] = float(dir.z * speed);
+        p.age[i] = 0.0f;
+        p.lifetime[i] = float(life);
+        ++e.born;
+    }
+}
+
+std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag, float dt) {
+    // v' = v (1 - drag dt) + g dt, x' = x + v' dt, age' = age + dt; four particles per register
+    const __m128 keep = _mm_set1_ps(1.0f - drag * dt);
+    const __m128 gx = _mm_set1_ps(float(gravity.x) * dt), gy = _mm_set1_ps(float(gravity.y) * dt),
+                 gz = _mm_set1_ps(float(gravity.z) * dt);
+    const __m128 step = _mm_set1_ps(dt);
+    p.deadGroups.clear();
+    const std::uint32_t whole = p.count & ~3u;
+    for (std::uint32_t i = 0; i < whole; i += 4) {
+        const __m128 vx = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vx[i]), keep), gx);
+        const __m128 vy = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vy[i]), keep), gy);
+        const __m128 vz = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vz[i]), keep), gz);
+        _mm_storeu_ps(&p.vx[i], vx);
+        _mm_storeu_ps(&p.vy[i], vy);
+        _mm_storeu_ps(&p.vz[i], vz);
+        _mm_storeu_ps(&p.px[i], _mm_add_ps(_mm_loadu_ps(&p.px[i]), _mm_mul_ps(vx, step)));
+        _mm_storeu_ps(&p.py[i], _mm_add_ps(_mm_loadu_ps(&p.py[i]), _mm_mul_ps(vy, step)));
+        _mm_storeu_ps(&p.pz[i], _mm_add_ps(_mm_loadu_ps(&p.pz[i]), _mm_mul_ps(vz, step)));
+        const __m128 age = _mm_add_ps(_mm_loadu_ps(&p.age[i]), step);
+        _mm_storeu_ps(&p.age[i], age);
+        if (_mm_movemask_ps(_mm_cmpge_ps(age, _mm_loadu_ps(&p.lifetime[i]))) != 0) {
+            p.deadGroups.push_back(i);
+        }
+    }
+    // the last few, one at a time, with exactly the same arithmetic
+    const float keepScalar = 1.0f - drag * dt;
+    bool tailDeath = false;
+    for (std::uint32_t i = whole; i < p.count; ++i) {
+        p.vx[i] = p.vx[i] * keepScalar + float(gravity.x) * dt;
+        p.vy[i] = p.vy[i] * keepScalar + float(gravity.y) * dt;
+        p.vz[i] = p.vz[i] * keepScalar + float(gravity.z) * dt;
+        p.px[i] += p.vx[i] * dt;
+        p.py[i] += p.vy[i] * dt;
+        p.pz[i] += p.vz[i] * dt;
+        p.age[i] += dt;
+        tailDeath = tailDeath || p.age[i] >= p.lifetime[i];
+    }
+    if (tailDeath) {
+        p.deadGroups.push_back(whole);
+    }
+    // swap-remove the dead, highest index first: whatever moves in from the end has been checked already
+    std::uint32_t deaths = 0;
+    for (std::size_t g = p.deadGroups.size(); g-- > 0;) {
+        const std::uint32_t first = p.deadGroups[g];
+        for (std::uint32_t i = std::min(first + 4, p.count); i-- > first;) {
+            if (p.age[i] < p.lifetime[i]) {
+                continue;
+            }
+            const std::uint32_t last = --p.count;
+            for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+                (*a)[i] = (*a)[last];
+            }
+            ++deaths;
+        }
+    }
+    return deaths;
+}
+
+void emitParticles(World& world, const StepContext& ctx) {
+    world.view<ParticleEmitter, const Transform>().each([&](Entity, ParticleEmitter& e, const Transform& t) {
+        e.origin = t.position;
+        std::uint64_t births = e.pendingBurst;
+        e.pendingBurst = 0;
+        if (e.def.rate > 0.0) {
+            // count births, do not accumulate fractions: floor(rate * time) in all, exactly
+            e.rateClock += ctx.dt;
+            const auto due = static_cast<std::uint64_t>(std::floor(e.def.rate * e.rateClock + 1e-9));
+            births += due - e.rateBorn;
+            e.rateBorn = due;
+        }
+        spawnParticles(e, births);
+    });
+}
+
+void updateParticles(World& world, const StepContext& ctx) {
+    const auto& g = world.resource<SceneDef>().gravity;
+    const Vec3 gravity{g[0], g[1], g[2]};
+    const Pool<ForceField>* fields = world.findPool<ForceField>();
+    const float dt = static_cast<float>(ctx.dt);
+    world.view<ParticleEmitter>().each([&](Entity, ParticleEmitter& e) {
+        if (fields && fields->size() > 0) {
+            applyFields(e.pool, fields->values(), dt);
+        }
+        advanceParticles(e.pool, gravity, static_cast<float>(e.def.drag), dt);
+    });
+}
+
+void registerParticleSystem(Catalog& catalog) {
+    catalog.addComponent({"emitter", loadEmitter});
+    catalog.addState<ParticleEmitter>("particles", dumpEmitter, hashEmitter);
+    // burst: value = [count], or the emitter's own burst size
+    catalog.addEventAction({"burst",
+                            "a particle emitter",
+                            {"value"},
+                            hasEmitter,
+                            [](const World&, Entity, const EventDef& ev) -> std::optional<std::string> {
+                                if (ev.value.size() > 1 || (ev.value.size() == 1 &&
+                                                            (ev.value[0] < 0 || ev.value[0] > kMaxParticles ||
+                                                             ev.value[0] != std::floor(ev.value[0])))) {
+                                    return "takes value = [count], a whole number of particles (or no value: "
+                                           "the emitter's burst)";
+                                }
+                                return std::nullopt;
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                auto& em = w.get<ParticleEmitter>(e);
+                                em.pendingBurst +=
+                                    ev.value.empty() ? em.def.burst : static_cast<std::uint64_t>(ev.value[0]);
+                            }});
+    // impulse: every live particle's velocity changes by value (each is a 1 kg body)
+    catalog.addEventAction({"impulse",
+                            "a particle emitter",
+                            {"value"},
+                            hasEmitter,
+                            [](const World&, Entity, const EventDef& ev) -> std::optional<std::string> {
+                                if (ev.value.size() != 3) {
+                                    return "needs value = [x, y, z]";
+                                }
+                                return std::nullopt;
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                ParticlePool& p = w.get<ParticleEmitter>(e).pool;
+                                for (std::uint32_t i = 0; i < p.count; ++i) {
+                                    p.vx[i] += float(ev.value[0]);
+                                    p.vy[i] += float(ev.value[1]);
+                                    p.vz[i] += float(ev.value[2]);
+                                }
+                            }});
+    // set_rate: value = [particles per second], from this step on
+    catalog.addEventAction({"set_rate",
+                            "a particle emitter",
+                            {"value"},
+                            hasEmitter,
+                            [](const World&, Entity, const EventDef& ev) -> std::optional<std::string> {
+                                if (ev.value.size() != 1 || ev.value[0] < 0 || ev.value[0] > 1e8) {
+                                    return "needs value = [particles per second], in [0, 1e8]";
+                                }
+                                return std::nullopt;
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                auto& em = w.get<ParticleEmitter>(e);
+                                em.def.rate = ev.value[0];
+                                em.rateClock = 0.0;
+                                em.rateBorn = 0;
+                            }});
+    catalog.addSystem(Phase::Fixed, "emitters", emitParticles);
+    catalog.addSystem(Phase::Fixed, "particles", updateParticles);
+}
+
+} // namespace tumble
