@@ -100,7 +100,7 @@ struct Mat3T {
         const double c[3] = {a.x, a.y, a.z};
         for (int i = 0; i < 3; ++i) {
             for (int j = 0; j < 3; ++j) {
-                r.m[std::size_t(3 * i + j)] = S(s * c[i] * c[j]);
+                r.m[std::size_t(3 * i + j)] = S(c[i] * c[j] * s); // c_i c_j first: bit-symmetric
             }
         }
         return r;

@@ -99,13 +99,20 @@ double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal) {
         return len - body.radius;
     }
     case ShapeKind::Cylinder: {
-        // a box in (radial, y) coordinates
+        // a rectangle in (radial, y): outside, the distance to its nearest point; inside, to the nearer of
+        // the curved side and the flat end
         const double radial = std::sqrt(d.x * d.x + d.z * d.z);
         const Vec3 outward = radial > 1e-12 ? Vec3{d.x / radial, 0.0, d.z / radial} : Vec3{1.0, 0.0, 0.0};
-        Vec3 n2;
-        const double dist = boxDistance({radial, d.y, 0.0}, {body.radius, 0.5 * body.height, 1.0}, n2);
-        normal = outward * n2.x + Vec3{0.0, n2.y, 0.0};
-        return dist;
+        const Vec3 upward{0.0, d.y < 0.0 ? -1.0 : 1.0, 0.0};
+        const double side = radial - body.radius, end = std::abs(d.y) - 0.5 * body.height;
+        if (side > 0.0 || end > 0.0) {
+            const double a = std::max(side, 0.0), b = std::max(end, 0.0);
+            const double dist = std::sqrt(a * a + b * b);
+            normal = (outward * a + upward * b) * (1.0 / dist);
+            return dist;
+        }
+        normal = side > end ? outward : upward;
+        return std::max(side, end);
     }
     }
     return 1e300;

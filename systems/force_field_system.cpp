@@ -25,10 +25,6 @@ double gustAt(const ForceField& f, double t) {
     return g / 3.0;
 }
 
-bool within(const ForceField& f, const Vec3& d) {
-    return f.radius <= 0.0 || dot(d, d) <= f.radius * f.radius;
-}
-
 void loadForceField(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
     ForceField f;
     const std::string kind = r.choice("kind", "wind", {"wind", "drag", "vortex", "point"});
@@ -40,7 +36,8 @@ void loadForceField(TableReader& r, World& world, Entity entity, const SceneDef&
         f.gust = r.number("gust", 0.0, 0.0, 1.0);
     } else {
         f.kind = kind == "drag" ? FieldKind::Drag : kind == "vortex" ? FieldKind::Vortex : FieldKind::Point;
-        f.strength = {r.number("strength", 1.0, -1e6, 1e6), 0.0, 0.0};
+        // drag only takes energy away; a vortex turns either way; a negative point field repels
+        f.strength = {r.number("strength", 1.0, f.kind == FieldKind::Drag ? 0.0 : -1e6, 1e6), 0.0, 0.0};
     }
     f.coefficient = r.number("coefficient", 1.0, 0.0, 1e6);
     if (f.kind == FieldKind::Vortex) {
@@ -71,52 +68,6 @@ void updateForceFields(World& world, const StepContext& ctx) {
         f.current =
             f.kind == FieldKind::Wind ? f.strength * (1.0 + f.gust * gustAt(f, ctx.time)) : f.strength;
     });
-}
-
-Vec3 fieldForce(const ForceField& f, const Vec3& x, const Vec3& v, double mass) {
-    switch (f.kind) {
-    case FieldKind::Wind:
-        return (f.current - v) * f.coefficient;
-    case FieldKind::Drag:
-        return v * -f.strength.x;
-    case FieldKind::Vortex: {
-        const Vec3 d = x - f.origin;
-        const Vec3 radial = d - f.axis * dot(d, f.axis);
-        if (!within(f, radial)) {
-            return {};
-        }
-        // the pull towards the axis that keeps a body turning at omega on its circle, plus the air's drag
-        // towards turning at omega (coefficient 0: a pure central force, which conserves the radius)
-        const double omega = f.strength.x;
-        const Vec3 air = cross(f.axis, radial) * omega;
-        return radial * (-omega * omega * mass) + (air - v) * f.coefficient;
-    }
-    case FieldKind::Point: {
-        const Vec3 d = f.origin - x;
-        if (!within(f, d)) {
-            return {};
-        }
-        const double r2 = dot(d, d) + 0.01; // softened within 0.1 m
-        return d * (f.strength.x * mass / (r2 * std::sqrt(r2)));
-    }
-    }
-    return {};
-}
-
-double fieldDamping(const ForceField& f, const Vec3& x) {
-    switch (f.kind) {
-    case FieldKind::Wind:
-        return f.coefficient;
-    case FieldKind::Drag:
-        return f.strength.x;
-    case FieldKind::Vortex: {
-        const Vec3 d = x - f.origin;
-        return within(f, d - f.axis * dot(d, f.axis)) ? f.coefficient : 0.0;
-    }
-    case FieldKind::Point:
-        return 0.0;
-    }
-    return 0.0;
 }
 
 void registerForceFieldSystem(Catalog& catalog) {

@@ -1,6 +1,7 @@
 #pragma once
-// Force fields: the `force_field` component's loader, the system that updates each field once per fixed
-// step (wind gusts), and the forces a field exerts, which the spring and particle systems share.
+// Force fields: the `force_field` component's loader and the system that updates each field once per
+// fixed step (wind gusts). The forces a field exerts are in field_forces.h, shared by the systems that
+// move bodies through fields.
 // System: reads ForceField, Transform; writes ForceField::current, origin. Phase: fixed, first.
 //
 // - wind: air moving at `strength` (m/s), varied by gusts: |w| scales by 1 + gust g(t), g a smooth sum of
@@ -25,12 +26,6 @@ namespace tumble {
 
 /// Updates every field's current wind and origin for this step.
 void updateForceFields(World& world, const StepContext& ctx);
-
-/// Force of a field on a point mass at x moving at v, N.
-Vec3 fieldForce(const ForceField& field, const Vec3& x, const Vec3& v, double mass);
-
-/// The damping a field adds around x: the c in dF/dv = -c I (for implicit integration), N s/m.
-double fieldDamping(const ForceField& field, const Vec3& x);
 
 /// Registers the `force_field` component and the system.
 void registerForceFieldSystem(Catalog& catalog);

@@ -57,6 +57,21 @@ std::uint32_t matchPairs(const BlockMatrix<S>& pattern, const std::vector<double
             }
             lonely = i;
         }
+        if (best == kNone && coupled) {
+            // every neighbour is taken (the leaves of a star): join the strongest neighbour's group rather
+            // than stay alone, so that coarsening never stalls
+            double strongest = 0.0;
+            for (std::uint32_t b = pattern.rowStart[i]; b < pattern.rowStart[std::size_t(i) + 1]; ++b) {
+                const std::uint32_t j = pattern.col[b];
+                if (j != i && group[j] != kNone && strength[b] > strongest) {
+                    strongest = strength[b];
+                    group[i] = group[j];
+                }
+            }
+            if (group[i] != kNone) {
+                continue;
+            }
+        }
         group[i] = count;
         if (best != kNone) {
             group[best] = count;
@@ -87,12 +102,20 @@ BlockMatrix<S> coarsePattern(const BlockMatrix<S>& fine, const std::vector<std::
     return coarse;
 }
 
+/// Coarse blocks as sums of fine ones, accumulated in double: where couplings cancel (a free body's
+/// springs), float sums would lose what is left.
 template <class S>
-void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& blockSlot,
-              BlockMatrix<S>& coarse) {
-    coarse.setZero();
+void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& blockSlot, BlockMatrix<S>& coarse,
+              std::vector<Mat3>& sums) {
+    sums.assign(coarse.val.size(), Mat3{});
     for (std::size_t b = 0; b < fine.val.size(); ++b) {
-        coarse.val[blockSlot[b]] += fine.val[b];
+        Mat3& to = sums[blockSlot[b]];
+        for (std::size_t e = 0; e < 9; ++e) {
+            to.m[e] += double(fine.val[b].m[e]);
+        }
+    }
+    for (std::size_t b = 0; b < sums.size(); ++b) {
+        coarse.val[b] = sums[b].template cast<S>();
     }
 }
 
@@ -136,7 +159,7 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
         std::vector<std::uint32_t> first, second, middleSlots;
         const std::uint32_t n1 = matchPairs(*current, strengths(*current), first);
         BlockMatrix<S> middle = coarsePattern(*current, first, n1, middleSlots);
-        galerkin(*current, middleSlots, middle);
+        galerkin(*current, middleSlots, middle, m_sums);
         const std::uint32_t n2 = matchPairs(middle, strengths(middle), second);
         if (n2 * 5 > current->n * 4) {
             break; // coarsening stalled (a graph with few couplings): solve what is left directly
@@ -147,7 +170,7 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
             level.group[i] = second[first[i]];
         }
         level.a = coarsePattern(*current, level.group, n2, level.blockSlot);
-        galerkin(*current, level.blockSlot, level.a);
+        galerkin(*current, level.blockSlot, level.a, m_sums);
         m_levels.push_back(std::move(level));
         current = &m_levels.back().a;
     }
@@ -162,7 +185,7 @@ void AggregationMultigrid<S>::update(const BlockMatrix<S>& a) {
     } else {
         const BlockMatrix<S>* finer = &a;
         for (Level& level : m_levels) {
-            galerkin(*finer, level.blockSlot, level.a);
+            galerkin(*finer, level.blockSlot, level.a, m_sums);
             finer = &level.a;
         }
     }
@@ -188,14 +211,36 @@ void AggregationMultigrid<S>::factorCoarsest() {
             }
         }
     }
-    // in-place lower Cholesky, in double whatever S is; the operator is SPD by construction
+    // in-place lower Cholesky, in double whatever S is. The operator is SPD by construction; if round-off
+    // says otherwise, the diagonal is shifted a little and the factorisation tried again (it only has to
+    // be a good preconditioner, not exact)
+    const std::vector<double> dense = m_cholesky;
+    double largest = 0.0;
+    for (std::size_t j = 0; j < d; ++j) {
+        largest = std::max(largest, std::abs(dense[j * d + j]));
+    }
+    for (int attempt = 0; attempt < 8; ++attempt) {
+        if (factorDense(d, attempt == 0 ? 0.0 : largest * 1e-7 * std::pow(10.0, attempt))) {
+            return;
+        }
+        m_cholesky = dense;
+    }
+    throw std::runtime_error("implicit solver: the system matrix is not positive definite (a negative "
+                             "stiffness, mass or damping?)");
+}
+
+template <class S>
+bool AggregationMultigrid<S>::factorDense(std::size_t d, double shift) {
+    for (std::size_t j = 0; j < d; ++j) {
+        m_cholesky[j * d + j] += shift;
+    }
     for (std::size_t j = 0; j < d; ++j) {
         double diag = m_cholesky[j * d + j];
         for (std::size_t k = 0; k < j; ++k) {
             diag -= m_cholesky[j * d + k] * m_cholesky[j * d + k];
         }
         if (!(diag > 0.0)) {
-            throw std::runtime_error("implicit solver: the system matrix is not positive definite");
+            return false;
         }
         const double ljj = std::sqrt(diag);
         m_cholesky[j * d + j] = ljj;
@@ -207,6 +252,7 @@ void AggregationMultigrid<S>::factorCoarsest() {
             m_cholesky[i * d + j] = s / ljj;
         }
     }
+    return true;
 }
 
 template <class S>

@@ -59,6 +59,7 @@ private:
                         std::vector<Vec>& x) const;
     void cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x);
     void factorCoarsest();
+    bool factorDense(std::size_t dim, double shift);
     void solveCoarsest(const std::vector<Vec>& b, std::vector<Vec>& x) const;
 
     const BlockMatrix<S>* m_fine = nullptr;
@@ -66,6 +67,7 @@ private:
     std::vector<Level> m_levels;    ///< coarser and coarser; the last is solved directly
     std::vector<double> m_cholesky; ///< dense lower factor of the coarsest operator (or of the fine one)
     mutable std::vector<double> m_coarseWork;
+    std::vector<Mat3> m_sums; ///< double accumulators of the Galerkin sums
     std::size_t m_coarsestDim = 0;
     bool m_built = false;
     std::vector<Vec> m_fineResidual;

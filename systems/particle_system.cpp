@@ -4,7 +4,7 @@
 #include "components/name.h"
 #include "components/transform.h"
 #include "engine/scene.h"
-#include "systems/force_field_system.h"
+#include "systems/field_forces.h"
 
 #include <emmintrin.h>
 

@@ -106,21 +106,16 @@ SpringNetwork buildCloth(const ClothDef& def) {
             }
         }
     }
-    // two triangles per quad, counter-clockwise seen from +z ("xy") or +y ("xz"); like the links, in
-    // classes (lower/upper triangle, even/odd column) whose consecutive members share no vertex
+    // two triangles per quad, counter-clockwise seen from +z ("xy", rows going down) or from +y ("xz",
+    // rows going towards +z): the same corner order in both planes. Like the links, in classes
+    // (lower/upper triangle, even/odd column) whose consecutive members share no vertex
     for (std::uint32_t upper = 0; upper < 2; ++upper) {
         for (std::uint32_t parity = 0; parity < 2; ++parity) {
             for (std::uint32_t r = 0; r + 1 < rows; ++r) {
                 for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
                     const std::uint32_t q00 = at(r, c), q01 = at(r, c + 1), q10 = at(r + 1, c),
                                         q11 = at(r + 1, c + 1);
-                    if (def.vertical) {
-                        net.triangles.push_back(upper ? std::array{q00, q11, q01}
-                                                      : std::array{q00, q10, q11});
-                    } else {
-                        net.triangles.push_back(upper ? std::array{q00, q01, q11}
-                                                      : std::array{q00, q11, q10});
-                    }
+                    net.triangles.push_back(upper ? std::array{q00, q11, q01} : std::array{q00, q10, q11});
                 }
             }
         }

@@ -1,7 +1,7 @@
 #include "systems/spring_forces.h"
 
 #include "systems/block_sparse.h"
-#include "systems/force_field_system.h"
+#include "systems/field_forces.h"
 
 #include <cmath>
 

@@ -75,20 +75,70 @@ void rk4(SpringNetwork& net, SpringWorkspace& w, const Environment& env, double 
     }
 }
 
+Mat3 scaled(const Mat3& m, double s) {
+    Mat3 r;
+    for (std::size_t e = 0; e < 9; ++e) {
+        r.m[e] = m.m[e] * s;
+    }
+    return r;
+}
+
+/// -h dF/dv of the wind on cloth triangles: a triangle's force on each corner is c A/3 ((w - vbar) . n) n
+/// with vbar the mean of its corners' velocities, so every pair of its corners gets h c A/9 n n^T.
+void addSurfaceWindDamping(const SpringNetwork& net, const Environment& env, double h,
+                           const std::vector<std::array<std::uint32_t, 9>>& triangleBlocks,
+                           std::vector<Mat3>& sums) {
+    if (!env.fields || net.kind != NetworkKind::Cloth) {
+        return;
+    }
+    for (const ForceField& field : *env.fields) {
+        if (field.kind != FieldKind::Wind || field.coefficient == 0.0) {
+            continue;
+        }
+        for (std::size_t k = 0; k < net.triangles.size(); ++k) {
+            const auto& t = net.triangles[k];
+            const Vec3 areaNormal = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]) * 0.5;
+            const double area = length(areaNormal);
+            if (area <= 1e-15) {
+                continue;
+            }
+            // c A/9 n n^T = c/9 (A n)(A n)^T / A
+            const Mat3 block = Mat3::outer(areaNormal, h * field.coefficient / (9.0 * area));
+            for (std::uint32_t slot : triangleBlocks[k]) {
+                sums[slot] += block;
+            }
+        }
+    }
+}
+
 /// The block pattern of a network's system matrix, where each link's blocks are, and which blocks the
 /// pinned masses clear.
 template <class S>
 void buildPattern(const SpringNetwork& net, ImplicitSolver<S>& w) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    pairs.reserve(net.links.size());
+    pairs.reserve(net.links.size() + 3 * net.triangles.size());
     for (const SpringLink& s : net.links) {
         pairs.emplace_back(std::min(s.a, s.b), std::max(s.a, s.b));
+    }
+    // the wind on a triangle couples its three corners
+    for (const auto& t : net.triangles) {
+        pairs.emplace_back(t[0], t[1]);
+        pairs.emplace_back(t[1], t[2]);
+        pairs.emplace_back(t[0], t[2]);
     }
     w.system = BlockMatrix<S>::fromPairs(static_cast<std::uint32_t>(net.x.size()), std::move(pairs));
     w.linkBlocks.resize(net.links.size());
     for (std::size_t k = 0; k < net.links.size(); ++k) {
         const SpringLink& s = net.links[k];
         w.linkBlocks[k] = {w.system.find(s.a, s.b), w.system.find(s.b, s.a)};
+    }
+    w.triangleBlocks.resize(net.triangles.size());
+    for (std::size_t k = 0; k < net.triangles.size(); ++k) {
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) {
+                w.triangleBlocks[k][3 * i + j] = w.system.find(net.triangles[k][i], net.triangles[k][j]);
+            }
+        }
     }
     w.dv.assign(net.x.size(), Vec3T<S>{});
     w.multigrid = AggregationMultigrid<S>{};
@@ -128,13 +178,17 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     // the springs' forces are added below, with their Jacobians, from one length and direction each
     externalForces(net, env, net.x, net.v, work.f);
 
-    // A = M + h c I + sum over springs of (h kd uu^T + h^2 K) in the +/- pattern, computed in double and
-    // stored in S; b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative to b
+    // A = M + h c I + sum over springs of (h kd uu^T + h^2 K) in the +/- pattern, + the wind's damping on
+    // cloth triangles; b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative to b.
+    // Everything is summed in double (the diagonal of a free body is its mass, left over when large
+    // spring terms cancel, and float sums would lose it) and stored in S at the end.
     std::vector<Vec3>& rhs = work.xs; // double accumulation of the right-hand side
+    std::vector<Mat3>& sums = w.sums; // double accumulation of every block
+    sums.assign(a.val.size(), Mat3{});
     rhs.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double m = 1.0 / net.invMass[i];
-        a.val[a.diag[i]] = Mat3T<S>::identity(S(m + h * massDamping(net, env, net.x[i])));
+        sums[a.diag[i]] = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
         rhs[i] = work.f[i] * h;
     }
     for (std::size_t k = 0; k < net.links.size(); ++k) {
@@ -143,8 +197,6 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         Vec3 u;
         double len = 0.0;
         if (!springStiffness(s, net.x[s.a], net.x[s.b], stiff, u, len)) {
-            a.val[w.linkBlocks[k][0]] = Mat3T<S>{};
-            a.val[w.linkBlocks[k][1]] = Mat3T<S>{};
             continue;
         }
         const Vec3 dvel = net.v[s.b] - net.v[s.a];
@@ -155,19 +207,15 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         rhs[s.a] += kdv * (h * h);
         rhs[s.b] -= kdv * (h * h);
         Mat3 block = Mat3::outer(u, h * s.kd);
-        for (std::size_t e = 0; e < 9; ++e) {
-            block.m[e] += h * h * stiff.m[e];
-        }
-        const Mat3T<S> blockS = block.template cast<S>();
-        a.val[a.diag[s.a]] += blockS;
-        a.val[a.diag[s.b]] += blockS;
-        // each link owns its off-diagonal blocks (links are unique pairs), so they are set, not summed
-        Mat3T<S> negative;
-        for (std::size_t e = 0; e < 9; ++e) {
-            negative.m[e] = -blockS.m[e];
-        }
-        a.val[w.linkBlocks[k][0]] = negative;
-        a.val[w.linkBlocks[k][1]] = negative;
+        block += scaled(stiff, h * h);
+        sums[a.diag[s.a]] += block;
+        sums[a.diag[s.b]] += block;
+        sums[w.linkBlocks[k][0]] -= block;
+        sums[w.linkBlocks[k][1]] -= block;
+    }
+    addSurfaceWindDamping(net, env, h, w.triangleBlocks, sums);
+    for (std::size_t b = 0; b < sums.size(); ++b) {
+        a.val[b] = sums[b].template cast<S>();
     }
     // constraint filtering: a pinned mass's row and column become the identity, its dv zero
     for (std::uint32_t b : w.pinnedBlocks) {

@@ -8,6 +8,7 @@
 #include "systems/spring_integrators.h"
 
 #include <cmath>
+#include <exception>
 #include <functional>
 #include <string>
 
@@ -17,6 +18,7 @@ namespace {
 
 constexpr double kHugeCoordinate = 1e9; // m
 constexpr std::size_t kMaxMasses = 1u << 20;
+constexpr std::int64_t kMaxClothVertices = 512 * 512;
 constexpr double kMaxSpeed = 1e4; // m/s: beyond it a network has blown up
 
 constexpr std::string_view kIntegratorNames[] = {"explicit_euler", "midpoint", "rk4", "symplectic_euler",
@@ -173,7 +175,7 @@ void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
         },
         "'first', 'both', 'none'");
     SpringNetwork net = buildRope(def);
-    readCommon(r, net, "symplectic_euler");
+    readCommon(r, net, "implicit_euler");
     attach(world, entity, std::move(net));
 }
 
@@ -183,8 +185,10 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef&) {
     def.centre = world.get<Transform>(entity).position;
     def.rows = static_cast<int>(r.integer("rows", 20, 2, 1000));
     def.cols = static_cast<int>(r.integer("cols", 20, 2, 1000));
-    if (std::int64_t(def.rows) * def.cols > std::int64_t(kMaxMasses)) {
-        r.fail("cols", r.where() + " has more than " + std::to_string(kMaxMasses) + " vertices");
+    if (std::int64_t(def.rows) * def.cols > kMaxClothVertices) {
+        r.fail("cols", r.where() + " has " + std::to_string(std::int64_t(def.rows) * def.cols) +
+                           " vertices; at most " + std::to_string(kMaxClothVertices) +
+                           " (512 x 512) are allowed, which already costs about a second per implicit step");
     }
     def.size = r.vector<2>("size", {1.0, 1.0}, 1e-6, 1e6);
     def.vertical = r.choice("plane", "xy", {"xy", "xz"}) == "xy";
@@ -318,6 +322,28 @@ void addNetworkAction(Catalog& catalog, const char* action,
          [apply](World& w, Entity e, const EventDef& ev) { apply(w.get<SpringNetwork>(e), ev); }});
 }
 
+/// What to try when a network of this integrator blows up.
+std::string remedy(const SpringNetwork& net, const StepContext& ctx) {
+    const std::string smaller = "--set scene.dt=" + std::to_string(ctx.dt / 4) +
+                                " (with scene.substeps x4 to keep "
+                                "the frame rate)";
+    switch (net.integrator) {
+    case Integrator::ExplicitEuler:
+        return "explicit Euler gains energy on an undamped spring at any step; use symplectic_euler, rk4 or "
+               "implicit_euler (integrator = \"implicit_euler\")";
+    case Integrator::Midpoint:
+    case Integrator::Rk4:
+    case Integrator::SymplecticEuler:
+        return "a smaller step, " + smaller + ", or integrator = \"implicit_euler\", stable at any step";
+    case Integrator::ImplicitEuler:
+        return "implicit Euler is stable for springs, so a force it takes explicitly (a strong wind or "
+               "field, a "
+               "collider) or a non-physical setting drove it; weaken those, or a smaller step, " +
+               smaller;
+    }
+    return smaller;
+}
+
 /// Non-finite, or faster than any sandbox scene moves: the integrator has diverged.
 bool blewUp(const SpringNetwork& net) {
     for (std::size_t i = 0; i < net.x.size(); ++i) {
@@ -339,24 +365,29 @@ void integrateSprings(World& world, const StepContext& ctx) {
             if (net.frozen) {
                 return;
             }
-            stepNetwork(net, work, env, ctx.dt);
-            if (blewUp(net)) {
-                // freeze it where it is, say so once, and let the rest of the scene run on
-                net.frozen = true;
-                for (Vec3& v : net.v) {
-                    v = Vec3{};
+            std::string problem;
+            try {
+                stepNetwork(net, work, env, ctx.dt);
+                if (blewUp(net)) {
+                    problem = "its state became non-finite or faster than 10 km/s";
                 }
-                RunReport& report = world.resource<RunReport>();
-                (net.blowUpFails ? report.failures : report.notes)
-                    .push_back(
-                        "entity '" + name.value + "' blew up at frame " + std::to_string(ctx.frame) +
-                        " (t = " + std::to_string(ctx.time) + " s) under " +
-                        std::string(integratorName(net.integrator)) +
-                        ": its state became non-finite or faster than 10 km/s, so it is frozen from here on. "
-                        "Remedy: a smaller step (--set scene.dt=" +
-                        std::to_string(ctx.dt / 4) +
-                        ", or more scene.substeps) or integrator = \"implicit_euler\"");
+            } catch (const std::exception& e) {
+                problem = e.what();
             }
+            if (problem.empty()) {
+                return;
+            }
+            // freeze it where it is, say so once, and let the rest of the scene run on
+            net.frozen = true;
+            for (Vec3& v : net.v) {
+                v = Vec3{};
+            }
+            RunReport& report = world.resource<RunReport>();
+            (net.blowUpFails ? report.failures : report.notes)
+                .push_back("entity '" + name.value + "' blew up at frame " + std::to_string(ctx.frame) +
+                           " (t = " + std::to_string(ctx.time) + " s) under " +
+                           std::string(integratorName(net.integrator)) + ": " + problem +
+                           "; it is frozen from here on. Remedy: " + remedy(net, ctx));
         });
 }
 

@@ -201,6 +201,15 @@ TEST(Collisions, ShapesReportDistanceAndNormal) {
     cylinder.height = 2.0;
     EXPECT_DOUBLE_EQ(signedDistance(cylinder, {0, 3, 0}, n), 2.0);
     EXPECT_DOUBLE_EQ(signedDistance(cylinder, {3, 0, 0}, n), 2.0);
+    RigidBody wide;
+    wide.shape = ShapeKind::Cylinder;
+    wide.radius = 5.0;
+    wide.height = 20.0;
+    EXPECT_DOUBLE_EQ(signedDistance(wide, {0.5, 0, 0}, n), -4.5)
+        << "deep inside: out through the curved side";
+    EXPECT_EQ(n, (Vec3{1, 0, 0}));
+    EXPECT_DOUBLE_EQ(signedDistance(wide, {0.5, 9.5, 0}, n), -0.5) << "near the top: out through the end";
+    EXPECT_EQ(n, (Vec3{0, 1, 0}));
 }
 
 class DrapeOver : public ::testing::TestWithParam<std::string> {};

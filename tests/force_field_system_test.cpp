@@ -2,7 +2,7 @@
 
 #include "components/force_field.h"
 #include "components/spring_network.h"
-#include "systems/force_field_system.h"
+#include "systems/field_forces.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
