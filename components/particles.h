@@ -58,7 +58,8 @@ struct ParticleEmitter {
     Vec3 origin; ///< m, the entity's position
     ParticlePool pool;
     Rng rng;                        ///< every random draw of this emitter, seeded from the scene seed
-    double rateClock = 0.0;         ///< s of emission at the current rate
+    std::uint64_t rateSteps = 0;    ///< fixed steps emitted at the current rate
+    double rateCarry = 0.0;         ///< the fraction of a birth owed when the rate was last set
     std::uint64_t rateBorn = 0;     ///< particles born by the rate since the rate was last set
     std::uint64_t pendingBurst = 0; ///< particles to burst at the start of the next step
     std::uint64_t born = 0;         ///< all particles born so far

@@ -17,7 +17,13 @@ namespace tumble {
 namespace {
 
 constexpr double kHuge = 1e9;
-constexpr std::int64_t kMaxParticles = 5'000'000; // 160 MB of state at most per emitter
+constexpr std::int64_t kMaxParticles = 5'000'000;        // 160 MB of state at most per emitter
+constexpr std::uint64_t kMaxSceneParticles = 10'000'000; // and 320 MB for the whole scene
+
+/// Load-time tally of the particles every emitter of the scene reserves.
+struct ReservedParticles {
+    std::uint64_t count = 0;
+};
 
 /// Two unit vectors completing `d` to an orthonormal basis (t1, t2, d).
 void basis(const Vec3& d, Vec3& t1, Vec3& t2) {
@@ -64,6 +70,17 @@ void loadEmitter(TableReader& r, World& world, Entity entity, const SceneDef& sc
     const auto speed = r.range("speed", {4.0, 6.0}, 0.0, 1e5);
     d.speed = {speed.first, speed.second};
     d.maxParticles = static_cast<std::uint32_t>(r.integer("max_particles", 100000, 1, kMaxParticles));
+    // every emitter reserves its whole pool at load (so a step never allocates): bound the scene's total
+    auto* reserved = world.tryResource<ReservedParticles>();
+    if (!reserved) {
+        reserved = &world.setResource<ReservedParticles>();
+    }
+    reserved->count += d.maxParticles;
+    if (reserved->count > kMaxSceneParticles) {
+        r.fail("max_particles", "the scene's emitters reserve " + std::to_string(reserved->count) +
+                                    " particles in all; at most " + std::to_string(kMaxSceneParticles) +
+                                    " (320 MB) are allowed");
+    }
     d.drag = r.number("drag", 0.0, 0.0, 1e3);
     d.collide = r.boolean("collide", true);
     d.restitution = r.number("restitution", 0.4, 0.0, 1.0);
@@ -122,7 +139,8 @@ void hashEmitter(const ParticleEmitter& e, Hasher& h) {
     }
     h.add(e.rng);
     h.add(e.def.rate);
-    h.add(e.rateClock);
+    h.add(e.rateSteps);
+    h.add(e.rateCarry);
     h.add(e.rateBorn);
     h.add(e.pendingBurst);
     h.add(e.born);
@@ -131,6 +149,19 @@ void hashEmitter(const ParticleEmitter& e, Hasher& h) {
 
 bool hasEmitter(const World& w, Entity e) {
     return w.has<ParticleEmitter>(e);
+}
+
+/// Births owed by the rate so far in this rate segment: floor(carry + rate * simulated time), the time
+/// counted in whole steps (no accumulated rounding), and a count within a relative 1e-9 of a whole number
+/// taken as that number (so 100 a second for 2 s at dt = 0.01 gives 200, not 199).
+std::uint64_t dueBirths(const ParticleEmitter& e, double dt) {
+    const double owed = e.rateCarry + e.def.rate * (static_cast<double>(e.rateSteps) * dt);
+    return static_cast<std::uint64_t>(std::floor(owed + 1e-9 * std::max(1.0, owed)));
+}
+
+/// The scene's fixed step, for events (which run outside the emitter system).
+double ctxDt(World& w) {
+    return w.resource<SceneDef>().dt;
 }
 
 /// Velocity changes from the force fields, per particle (a 1 kg body).
@@ -219,8 +250,10 @@ void spawnParticles(ParticleEmitter& e, std::uint64_t n) {
 }
 
 std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag, float dt) {
-    // v' = v (1 - drag dt) + g dt, x' = x + v' dt, age' = age + dt; four particles per register
-    const __m128 keep = _mm_set1_ps(1.0f - drag * dt);
+    // v' = v e^(-drag dt) + g dt, x' = x + v' dt, age' = age + dt; four particles per register. The drag
+    // factor is the exact decay over the step, so any drag is stable (1 - drag dt would not be past 2/dt)
+    const float keepScalar = std::exp(-drag * dt);
+    const __m128 keep = _mm_set1_ps(keepScalar);
     const __m128 gx = _mm_set1_ps(float(gravity.x) * dt), gy = _mm_set1_ps(float(gravity.y) * dt),
                  gz = _mm_set1_ps(float(gravity.z) * dt);
     const __m128 step = _mm_set1_ps(dt);
@@ -243,7 +276,6 @@ std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag,
         }
     }
     // the last few, one at a time, with exactly the same arithmetic
-    const float keepScalar = 1.0f - drag * dt;
     bool tailDeath = false;
     for (std::uint32_t i = whole; i < p.count; ++i) {
         p.vx[i] = p.vx[i] * keepScalar + float(gravity.x) * dt;
@@ -283,8 +315,8 @@ void emitParticles(World& world, const StepContext& ctx) {
         e.pendingBurst = 0;
         if (e.def.rate > 0.0) {
             // count births, do not accumulate fractions: floor(rate * time) in all, exactly
-            e.rateClock += ctx.dt;
-            const auto due = static_cast<std::uint64_t>(std::floor(e.def.rate * e.rateClock + 1e-9));
+            ++e.rateSteps;
+            const std::uint64_t due = dueBirths(e, ctx.dt);
             births += due - e.rateBorn;
             e.rateBorn = due;
         }
@@ -359,8 +391,12 @@ void registerParticleSystem(Catalog& catalog) {
                             },
                             [](World& w, Entity e, const EventDef& ev) {
                                 auto& em = w.get<ParticleEmitter>(e);
+                                // the fraction of a birth owed at the old rate carries over to the new one
+                                em.rateCarry = em.rateCarry +
+                                               em.def.rate * (double(em.rateSteps) * ctxDt(w)) -
+                                               double(em.rateBorn);
                                 em.def.rate = ev.value[0];
-                                em.rateClock = 0.0;
+                                em.rateSteps = 0;
                                 em.rateBorn = 0;
                             }});
     catalog.addSystem(Phase::Fixed, "emitters", emitParticles);

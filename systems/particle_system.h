@@ -3,15 +3,19 @@
 // the force fields, and die when their lifetime is over.
 //
 // emitters (phase fixed, after the force fields): births of the step, from the rate and any pending burst.
-//   Reads Transform; writes ParticleEmitter. Rate births are counted, not accumulated: after t seconds at
-//   rate r an emitter has born floor(r t) particles (a count within 1e-9 of a whole number counts as that
-//   number), so fractional births carry over exactly and 100 per second gives 200 in two seconds. When the
+//   Reads Transform; writes ParticleEmitter. Rate births are counted, not accumulated: after n steps of dt
+//   at rate r an emitter has born floor(r n dt) particles (a count within a relative 1e-9 of a whole number
+//   counts as that number), so fractional births carry over exactly and 100 per second gives 200 in two
+//   seconds of simulated time; set_rate carries the owed fraction into the new rate. When the
 //   pool is full (max_particles), a birth is dropped, not swapped for an older particle; `dropped` counts
 //   them, and the dump shows it.
 // particles (phase fixed, after the emitters): ages every particle, removes the dead by swap-remove, and
-//   advances the rest by symplectic Euler, v += dt (g - drag v + fields), then x += dt v: first order, one
-//   evaluation, and stable for any drag below 2/dt. Reads SceneDef (gravity), ForceField; writes
-//   ParticleEmitter. Collisions with static colliders are the collision system's (collision_system.h).
+//   advances the rest by symplectic Euler, v += dt (g + fields) with drag applied as its exact decay
+//   e^(-drag dt), then x += dt v: first order, one evaluation, stable for any drag. The fields are taken
+//   explicitly: a wind or vortex coefficient above 2/dt makes particles overshoot. Particles move a whole
+//   step at a time, so one faster than a collider's thickness per step can pass through it. Reads SceneDef
+//   (gravity), ForceField; writes ParticleEmitter. Collisions with static colliders are the collision
+//   system's (collision_system.h).
 //
 // The update of gravity, drag, ageing and deaths runs over the packed float arrays four particles at a
 // time (SSE2, which every x86-64 CPU has, so the results are the same everywhere); the rare groups that

@@ -28,7 +28,7 @@ std::string scene(const std::string& emitterKeys, const std::string& extra = "",
            emitterKeys + "\n" + extra;
 }
 
-TEST(Particles, BurstThrownUpFollowsTheProjectileWithinSymplecticEulersError) {
+TEST(ParticleSystem, BurstThrownUpFollowsTheProjectileWithinSymplecticEulersError) {
     const double v0 = 12.0, g = 9.81, dt = 0.01;
     auto sim = simulate(scene("burst = 20\nspeed = [12.0, 12.0]\nspread_deg = 0.0\nlifetime = [10.0, 10.0]\n"
                               "direction = [0, 1, 0]\ncollide = false"));
@@ -47,7 +47,7 @@ TEST(Particles, BurstThrownUpFollowsTheProjectileWithinSymplecticEulersError) {
     }
 }
 
-TEST(Particles, RateBirthsAreExactIncludingFractions) {
+TEST(ParticleSystem, RateBirthsAreExactIncludingFractions) {
     for (const auto& [rate, dt, seconds, expected] :
          std::vector<std::tuple<std::string, std::string, int, std::uint32_t>>{
              {"100.0", "0.0166666667", 120, 200u}, // 100 per second for 2 s at 60 Hz: 1.67 a step, 200 in all
@@ -63,7 +63,7 @@ TEST(Particles, RateBirthsAreExactIncludingFractions) {
     }
 }
 
-TEST(Particles, SteadyStateCountIsRateTimesLifetime) {
+TEST(ParticleSystem, SteadyStateCountIsRateTimesLifetime) {
     auto sim = simulate(scene("rate = 300.0\nlifetime = [2.0, 2.0]\ncollide = false"));
     for (int i = 0; i < 500; ++i) {
         sim->runFrame();
@@ -75,7 +75,7 @@ TEST(Particles, SteadyStateCountIsRateTimesLifetime) {
     }
 }
 
-TEST(Particles, FullPoolDropsBirthsAndCountsThem) {
+TEST(ParticleSystem, FullPoolDropsBirthsAndCountsThem) {
     auto sim = simulate(scene("burst = 100\nmax_particles = 60\nlifetime = [5.0, 5.0]\ncollide = false"));
     sim->runFrame();
     EXPECT_EQ(emitter(*sim).pool.count, 60u);
@@ -83,7 +83,7 @@ TEST(Particles, FullPoolDropsBirthsAndCountsThem) {
     EXPECT_EQ(emitter(*sim).born, 60u);
 }
 
-TEST(Particles, ParticlesThrownAtAFloorNeverEndUpBelowIt) {
+TEST(ParticleSystem, ParticlesThrownAtAFloorNeverEndUpBelowIt) {
     auto sim =
         simulate(scene("rate = 2000.0\nspeed = [5.0, 15.0]\nspread_deg = 40.0\ndirection = [0.3, -1, 0.1]\n"
                        "lifetime = [3.0, 4.0]\nrestitution = 0.6",
@@ -96,7 +96,8 @@ TEST(Particles, ParticlesThrownAtAFloorNeverEndUpBelowIt) {
         sim->runFrame();
         const ParticlePool& p = emitter(*sim).pool;
         for (std::uint32_t k = 0; k < p.count; ++k) {
-            ASSERT_GE(p.py[k], 0.0f) << "frame " << i;
+            ASSERT_GE(p.py[k], 0.0f) << "frame " << i << " at " << p.px[k] << " " << p.py[k] << " " << p.pz[k]
+                                     << " v " << p.vx[k] << " " << p.vy[k] << " " << p.vz[k];
             const double dx = p.px[k] - 1.0, dy = p.py[k] - 0.2, dz = p.pz[k];
             ASSERT_GE(dx * dx + dy * dy + dz * dz, 0.25 * (1.0 - 1e-5)) << "inside the ball at frame " << i;
             ++checked;
@@ -105,7 +106,7 @@ TEST(Particles, ParticlesThrownAtAFloorNeverEndUpBelowIt) {
     EXPECT_GT(checked, 100000u);
 }
 
-TEST(Particles, VortexWithoutDragKeepsEachParticlesRadius) {
+TEST(ParticleSystem, VortexWithoutDragKeepsEachParticlesRadius) {
     const double omega = 3.0;
     auto sim = simulate(scene("lifetime = [100.0, 100.0]\ncollide = false\nmax_particles = 64",
                               "[[entity]]\nname = \"twister\"\n[entity.force_field]\nkind = \"vortex\"\n"
@@ -141,7 +142,7 @@ TEST(Particles, VortexWithoutDragKeepsEachParticlesRadius) {
     }
 }
 
-TEST(Particles, DirectionsFillTheSpreadConeUniformly) {
+TEST(ParticleSystem, DirectionsFillTheSpreadConeUniformly) {
     auto sim =
         simulate(scene("burst = 20000\nmax_particles = 20000\nspread_deg = 60.0\ndirection = [0, 0, 1]\n"
                        "speed = [1.0, 1.0]\ncollide = false\nlifetime = [5.0, 5.0]",
@@ -164,7 +165,7 @@ TEST(Particles, DirectionsFillTheSpreadConeUniformly) {
     EXPECT_NEAR(sumY / p.count, 0.0, 0.01);
 }
 
-TEST(Particles, SameSeedSameParticlesOtherSeedOthers) {
+TEST(ParticleSystem, SameSeedSameParticlesOtherSeedOthers) {
     const std::string text = scene("rate = 500.0\nspread_deg = 30.0\nspeed = [2.0, 6.0]\nshape = \"sphere\"\n"
                                    "radius = 0.3\ncollide = false");
     auto a = simulate(text), b = simulate(text), c = simulate(text, {"scene.seed=9"});
@@ -178,7 +179,7 @@ TEST(Particles, SameSeedSameParticlesOtherSeedOthers) {
     EXPECT_EQ(emitter(*a).pool.count, emitter(*c).pool.count) << "the count does not depend on the draws";
 }
 
-TEST(Particles, VectorisedKernelMatchesAPlainLoopExactly) {
+TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
     ParticlePool p, q;
     p.reserve(1003);
     Rng rng(11);
@@ -197,9 +198,10 @@ TEST(Particles, VectorisedKernelMatchesAPlainLoopExactly) {
     // the plain reference: same arithmetic per particle, deaths filtered out
     std::vector<std::array<float, 8>> expected;
     for (std::uint32_t i = 0; i < q.count; ++i) {
-        const float vx = q.vx[i] * (1.0f - drag * dt) + float(g.x) * dt;
-        const float vy = q.vy[i] * (1.0f - drag * dt) + float(g.y) * dt;
-        const float vz = q.vz[i] * (1.0f - drag * dt) + float(g.z) * dt;
+        const float keep = std::exp(-drag * dt);
+        const float vx = q.vx[i] * keep + float(g.x) * dt;
+        const float vy = q.vy[i] * keep + float(g.y) * dt;
+        const float vz = q.vz[i] * keep + float(g.z) * dt;
         const float age = q.age[i] + dt;
         if (age >= q.lifetime[i]) {
             continue;
@@ -220,7 +222,7 @@ TEST(Particles, VectorisedKernelMatchesAPlainLoopExactly) {
     EXPECT_EQ(got, expected);
 }
 
-TEST(Particles, ColourAndSizeOverLife) {
+TEST(ParticleSystem, ColourAndSizeOverLife) {
     EmitterDef d;
     d.colorStart = {1.0f, 0.8f, 0.2f, 1.0f};
     d.colorEnd = {0.8f, 0.0f, 0.0f, 0.0f};
@@ -231,7 +233,7 @@ TEST(Particles, ColourAndSizeOverLife) {
     EXPECT_NEAR(particleSize(d, 0.5f), 0.03f, 1e-7);
 }
 
-TEST(Particles, BurstEventBornsAtItsStep) {
+TEST(ParticleSystem, BurstEventGivesBirthAtItsStep) {
     auto sim =
         simulate(scene("lifetime = [10.0, 10.0]\ncollide = false",
                        "[[event]]\nframe = 5\nentity = \"spout\"\naction = \"burst\"\nvalue = [42]\n"));
@@ -241,6 +243,67 @@ TEST(Particles, BurstEventBornsAtItsStep) {
     }
     sim->runFrame();
     EXPECT_EQ(emitter(*sim).pool.count, 42u);
+}
+
+TEST(ParticleSystem, RateCountStaysExactOverAHundredThousandSteps) {
+    // 100 a second at dt = 0.01 for 1000 s: exactly one birth a step, every step
+    auto sim = simulate(scene("rate = 100.0\nlifetime = [0.5, 0.5]\ncollide = false"));
+    for (int i = 1; i <= 100000; ++i) {
+        sim->runFrame();
+        ASSERT_EQ(emitter(*sim).born, std::uint64_t(i)) << "step " << i;
+    }
+}
+
+TEST(ParticleSystem, SetRateCarriesTheOwedFraction) {
+    // 0.5 a second, the rate set again (to the same value) every 1.5 s: 6 s still give 3 births
+    std::string events;
+    for (double at : {1.5, 3.0, 4.5}) {
+        events += "[[event]]\nat = " + std::to_string(at) +
+                  "\nentity = \"spout\"\naction = \"set_rate\"\nvalue = [0.5]\n";
+    }
+    auto sim = simulate(scene("rate = 0.5\nlifetime = [100.0, 100.0]\ncollide = false", events));
+    for (int i = 0; i < 600; ++i) {
+        sim->runFrame();
+    }
+    EXPECT_EQ(emitter(*sim).born, 3u);
+}
+
+TEST(ParticleSystem, BounceHeightFollowsRestitution) {
+    // dropped from 2 m onto a plane with restitution 0.5: the first rebound tops out near 0.25 x 2 m
+    auto sim = simulate(scene("burst = 1\nspeed = [0.0, 0.0]\nspread_deg = 0.0\nlifetime = [10.0, 10.0]\n"
+                              "restitution = 0.5",
+                              "[entity.transform]\nposition = [0, 2, 0]\n[[entity]]\nname = \"floor\"\n"
+                              "[entity.rigid_body]\nshape = \"plane\"\n",
+                              "0.001"));
+    bool bounced = false;
+    double top = 0.0;
+    for (int i = 0; i < 1500; ++i) {
+        sim->runFrame();
+        const ParticlePool& p = emitter(*sim).pool;
+        bounced = bounced || p.vy[0] > 0.0f;
+        if (bounced) {
+            top = std::max(top, double(p.py[0]));
+        }
+    }
+    ASSERT_TRUE(bounced);
+    EXPECT_NEAR(top, 0.5, 0.02);
+}
+
+TEST(ParticleSystem, KernelHandlesEveryTailLength) {
+    for (std::uint32_t n : {0u, 1u, 3u, 4u, 5u, 8u, 9u}) {
+        for (const bool allDie : {false, true}) {
+            ParticlePool p;
+            p.reserve(16);
+            for (std::uint32_t i = 0; i < n; ++i) {
+                p.lifetime[i] = allDie ? 0.01f : 10.0f;
+                p.py[i] = float(i);
+            }
+            p.count = n;
+            const std::uint32_t deaths = advanceParticles(p, {0.0, -9.81, 0.0}, 0.0f, 0.02f);
+            EXPECT_EQ(deaths, allDie ? n : 0u) << n;
+            EXPECT_EQ(p.count, allDie ? 0u : n) << n;
+        }
+    }
 }
 
 } // namespace

@@ -10,6 +10,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <string>
 
 namespace tumble {
@@ -39,7 +40,7 @@ MillionScene steadyMillion() {
 
 /// The plain way: one scalar loop that ages, kills by swap-remove when it meets a death, and moves.
 void advancePlain(ParticlePool& p, const Vec3& g, float drag, float dt) {
-    const float keep = 1.0f - drag * dt;
+    const float keep = std::exp(-drag * dt);
     for (std::uint32_t i = 0; i < p.count;) {
         p.age[i] += dt;
         if (p.age[i] >= p.lifetime[i]) {
