@@ -1,6 +1,7 @@
 #include "engine/cli.h"
 
 #include "engine/progress.h"
+#include "engine/render_output.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
 
@@ -83,6 +84,7 @@ struct RunOptions {
     std::string trace;
     std::string dump;
     std::int64_t dumpEvery = 0;
+    std::int64_t pngEvery = 0;
     bool quiet = false;
     bool progress = false;
 };
@@ -138,10 +140,12 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     }
     OutputFile profile(o.profile.empty() ? outDir + "/profile.json" : o.profile);
     sim.profiler().enableTrace(trace.has_value());
-    if (!o.noRender) {
-        std::fprintf(stderr, "tumble: note: this build has no renderer yet; simulating only "
-                             "(--no-render silences this note)\n");
-    }
+    // what the renderer is asked for (it is a frame-phase system and reads this)
+    RenderOutput& render = sim.world().setResource<RenderOutput>();
+    render.enabled = !o.noRender;
+    render.directory = outDir;
+    render.pngEvery = static_cast<std::uint64_t>(o.pngEvery);
+    render.lastFrame = frames;
 
     // the first Ctrl-C stops the run at the next frame and keeps the outputs; a second one kills it
     struct sigaction stop {};
@@ -212,6 +216,12 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
                          "to see them all\n",
                          Profiler::kMaxTraceEvents);
         }
+    }
+    const std::vector<std::string>& pngs = sim.world().resource<RenderOutput>().written;
+    if (!pngs.empty()) {
+        wrote.push_back(pngs.size() == 1 ? pngs[0]
+                                         : std::to_string(pngs.size()) + " PNG frames in " + outDir +
+                                               " (the last: " + pngs.back() + ")");
     }
     const FrameStats f = sim.profiler().frameStats();
     if (!o.quiet) {
@@ -305,6 +315,12 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
         ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
     run->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
     run->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
+    run->add_option(
+           "--png-every", o.pngEvery,
+           "Write frame_NNNNN.png into the output folder every K frames (0: the last frame only, the "
+           "default)")
+        ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)))
+        ->type_name("K");
     run->add_option("--profile", o.profile,
                     "Write the budget summary as JSON to FILE (default <out>/profile.json)")
         ->type_name("FILE");

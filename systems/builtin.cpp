@@ -3,6 +3,7 @@
 #include "systems/collision_system.h"
 #include "systems/force_field_system.h"
 #include "systems/particle_system.h"
+#include "systems/render_system.h"
 #include "systems/spring_system.h"
 
 namespace tumble {
@@ -13,6 +14,8 @@ void registerBuiltinSystems(Catalog& catalog) {
     registerParticleSystem(catalog);
     registerSpringSystem(catalog);
     registerCollisionSystem(catalog);
+    // the frame phase
+    registerRenderSystem(catalog);
 }
 
 } // namespace tumble

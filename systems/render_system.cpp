@@ -1,0 +1,456 @@
+#include "systems/render_system.h"
+
+#include "components/particles.h"
+#include "components/rigid_body.h"
+#include "components/spring_network.h"
+#include "engine/gl_context.h"
+#include "engine/render_output.h"
+#include "engine/scene.h"
+
+#include <GLES3/gl3.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <numbers>
+#include <sstream>
+
+namespace tumble {
+
+namespace {
+
+using Mat4 = std::array<float, 16>; // column-major, as GL takes it
+
+Mat4 multiply(const Mat4& a, const Mat4& b) {
+    Mat4 r{};
+    for (int c = 0; c < 4; ++c) {
+        for (int row = 0; row < 4; ++row) {
+            float s = 0.0f;
+            for (int k = 0; k < 4; ++k) {
+                s += a[std::size_t(k * 4 + row)] * b[std::size_t(c * 4 + k)];
+            }
+            r[std::size_t(c * 4 + row)] = s;
+        }
+    }
+    return r;
+}
+
+Mat4 lookAt(const Vec3& eye, const Vec3& target) {
+    Vec3 f = target - eye;
+    f = f * (1.0 / length(f));
+    Vec3 up{0.0, 1.0, 0.0};
+    if (std::abs(dot(f, up)) > 0.999) {
+        up = {0.0, 0.0, -1.0};
+    }
+    Vec3 s = cross(f, up);
+    s = s * (1.0 / length(s));
+    const Vec3 u = cross(s, f);
+    return {float(s.x),          float(u.x),          float(-f.x),        0.0f,
+            float(s.y),          float(u.y),          float(-f.y),        0.0f,
+            float(s.z),          float(u.z),          float(-f.z),        0.0f,
+            float(-dot(s, eye)), float(-dot(u, eye)), float(dot(f, eye)), 1.0f};
+}
+
+Mat4 perspective(double fovDeg, double aspect, double nearPlane, double farPlane) {
+    const double f = 1.0 / std::tan(fovDeg * std::numbers::pi / 360.0);
+    Mat4 m{};
+    m[0] = float(f / aspect);
+    m[5] = float(f);
+    m[10] = float((farPlane + nearPlane) / (nearPlane - farPlane));
+    m[11] = -1.0f;
+    m[14] = float(2.0 * farPlane * nearPlane / (nearPlane - farPlane));
+    return m;
+}
+
+/// Translation, then a per-axis scale (and, for planes, a basis whose y is the normal).
+Mat4 model(const Vec3& at, const Vec3& scale, const Vec3& xAxis = {1, 0, 0}, const Vec3& yAxis = {0, 1, 0},
+           const Vec3& zAxis = {0, 0, 1}) {
+    return {float(xAxis.x * scale.x),
+            float(xAxis.y * scale.x),
+            float(xAxis.z * scale.x),
+            0.0f,
+            float(yAxis.x * scale.y),
+            float(yAxis.y * scale.y),
+            float(yAxis.z * scale.y),
+            0.0f,
+            float(zAxis.x * scale.z),
+            float(zAxis.y * scale.z),
+            float(zAxis.z * scale.z),
+            0.0f,
+            float(at.x),
+            float(at.y),
+            float(at.z),
+            1.0f};
+}
+
+std::string readText(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        throw std::runtime_error("cannot read the shader " + path +
+                                 " (set TUMBLE_ASSETS to the assets folder)");
+    }
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+/// A static mesh on the GPU: interleaved position and normal, drawn as triangles.
+struct Mesh {
+    GLuint vao = 0, vbo = 0;
+    GLsizei vertices = 0;
+};
+
+Mesh upload(const std::vector<float>& positionNormal) {
+    Mesh m;
+    glGenVertexArrays(1, &m.vao);
+    glGenBuffers(1, &m.vbo);
+    glBindVertexArray(m.vao);
+    glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(positionNormal.size() * sizeof(float)), positionNormal.data(),
+                 GL_STATIC_DRAW);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<void*>(3 * sizeof(float)));
+    m.vertices = GLsizei(positionNormal.size() / 6);
+    return m;
+}
+
+void pushVertex(std::vector<float>& out, const Vec3& p, const Vec3& n) {
+    out.insert(out.end(), {float(p.x), float(p.y), float(p.z), float(n.x), float(n.y), float(n.z)});
+}
+
+/// A unit sphere (radius 1) from latitude-longitude quads.
+std::vector<float> sphereMesh(int slices = 32, int stacks = 16) {
+    std::vector<float> out;
+    auto at = [&](int i, int j) {
+        const double theta = std::numbers::pi * j / stacks, phi = 2.0 * std::numbers::pi * i / slices;
+        return Vec3{std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)};
+    };
+    for (int j = 0; j < stacks; ++j) {
+        for (int i = 0; i < slices; ++i) {
+            const Vec3 a = at(i, j), b = at(i + 1, j), c = at(i + 1, j + 1), d = at(i, j + 1);
+            for (const Vec3& p : {a, c, b, a, d, c}) {
+                pushVertex(out, p, p);
+            }
+        }
+    }
+    return out;
+}
+
+/// A unit cube (half extents 1).
+std::vector<float> cubeMesh() {
+    std::vector<float> out;
+    for (int axis = 0; axis < 3; ++axis) {
+        for (double sign : {-1.0, 1.0}) {
+            Vec3 n, u, v;
+            (axis == 0 ? n.x : axis == 1 ? n.y : n.z) = sign;
+            (axis == 0 ? u.y : axis == 1 ? u.z : u.x) = 1.0;
+            v = cross(n, u);
+            const Vec3 c = n;
+            const Vec3 p[4] = {c - u - v, c + u - v, c + u + v, c - u + v};
+            for (int k : {0, 1, 2, 0, 2, 3}) {
+                pushVertex(out, p[k], n);
+            }
+        }
+    }
+    return out;
+}
+
+/// A unit cylinder: radius 1, from y = -1 to 1, with caps.
+std::vector<float> cylinderMesh(int slices = 32) {
+    std::vector<float> out;
+    for (int i = 0; i < slices; ++i) {
+        const double a = 2.0 * std::numbers::pi * i / slices, b = 2.0 * std::numbers::pi * (i + 1) / slices;
+        const Vec3 na{std::cos(a), 0, std::sin(a)}, nb{std::cos(b), 0, std::sin(b)};
+        const Vec3 up{0, 1, 0};
+        for (const auto& [p, n] : {std::pair{na - up, na}, std::pair{nb + up, nb}, std::pair{nb - up, nb},
+                                   std::pair{na - up, na}, std::pair{na + up, na}, std::pair{nb + up, nb}}) {
+            pushVertex(out, p, n);
+        }
+        for (double s : {-1.0, 1.0}) {
+            const Vec3 c{0, s, 0};
+            for (const Vec3& p : {c, na + c, nb + c}) {
+                pushVertex(out, p, c);
+            }
+        }
+    }
+    return out;
+}
+
+/// A vertex of the flat shader: position, colour, size.
+struct FlatVertex {
+    float x, y, z;
+    float r, g, b, a;
+    float size;
+};
+
+/// Everything GL the renderer keeps between frames.
+struct Renderer {
+    std::unique_ptr<GlContext> context;
+    std::unique_ptr<Framebuffer> target;
+    GLuint meshProgram = 0, flatProgram = 0;
+    Mesh sphere, cube, cylinder, plane;
+    GLuint clothVao = 0, clothVbo = 0, flatVao = 0, flatVbo = 0;
+    std::vector<float> clothVertices; ///< scratch: position + normal per corner
+    std::vector<Vec3> normals;        ///< scratch: per-mass normals of a cloth
+    std::vector<FlatVertex> flat;     ///< scratch: lines and points
+    std::vector<std::uint8_t> pixels; ///< the last image read back
+    bool drawn = false;
+};
+
+void setupFlatAttributes() {
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(FlatVertex), nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, sizeof(FlatVertex),
+                          reinterpret_cast<void*>(3 * sizeof(float)));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, sizeof(FlatVertex),
+                          reinterpret_cast<void*>(7 * sizeof(float)));
+}
+
+Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
+    if (auto* r = world.tryResource<Renderer>()) {
+        return *r;
+    }
+    Renderer& r = world.setResource<Renderer>();
+    r.context = std::make_unique<GlContext>();
+    output.device = r.context->description();
+    r.target = std::make_unique<Framebuffer>(scene.renderWidth, scene.renderHeight);
+    const std::string shaders = assetDirectory() + "/shaders/";
+    r.meshProgram = compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "mesh.frag"), "mesh");
+    r.flatProgram = compileProgram(readText(shaders + "flat.vert"), readText(shaders + "flat.frag"), "flat");
+    r.sphere = upload(sphereMesh());
+    r.cube = upload(cubeMesh());
+    r.cylinder = upload(cylinderMesh());
+    std::vector<float> quad;
+    for (const Vec3& p :
+         {Vec3{-1, 0, -1}, Vec3{1, 0, 1}, Vec3{1, 0, -1}, Vec3{-1, 0, -1}, Vec3{-1, 0, 1}, Vec3{1, 0, 1}}) {
+        pushVertex(quad, p, {0, 1, 0});
+    }
+    r.plane = upload(quad);
+    glGenVertexArrays(1, &r.clothVao);
+    glGenBuffers(1, &r.clothVbo);
+    glBindVertexArray(r.clothVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<void*>(3 * sizeof(float)));
+    glGenVertexArrays(1, &r.flatVao);
+    glGenBuffers(1, &r.flatVbo);
+    glBindVertexArray(r.flatVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.flatVbo);
+    setupFlatAttributes();
+    return r;
+}
+
+/// Colour of the n-th drawn thing: a small fixed palette.
+std::array<float, 4> palette(std::size_t n) {
+    static const std::array<std::array<float, 4>, 6> colours = {{{0.85f, 0.33f, 0.25f, 1.0f},
+                                                                 {0.25f, 0.55f, 0.85f, 1.0f},
+                                                                 {0.95f, 0.75f, 0.25f, 1.0f},
+                                                                 {0.40f, 0.75f, 0.40f, 1.0f},
+                                                                 {0.70f, 0.45f, 0.80f, 1.0f},
+                                                                 {0.90f, 0.55f, 0.35f, 1.0f}}};
+    return colours[n % colours.size()];
+}
+
+void drawColliders(World& world, Renderer& r) {
+    const GLint modelLoc = glGetUniformLocation(r.meshProgram, "uModel");
+    const GLint colourLoc = glGetUniformLocation(r.meshProgram, "uColor");
+    const GLint gridLoc = glGetUniformLocation(r.meshProgram, "uGrid");
+    auto draw = [&](const Mesh& m, const Mat4& transform, const std::array<float, 4>& colour, bool grid) {
+        glUniformMatrix4fv(modelLoc, 1, GL_FALSE, transform.data());
+        glUniform4fv(colourLoc, 1, colour.data());
+        glUniform1f(gridLoc, grid ? 1.0f : 0.0f);
+        glBindVertexArray(m.vao);
+        glDrawArrays(GL_TRIANGLES, 0, m.vertices);
+    };
+    const std::array<float, 4> stone{0.62f, 0.60f, 0.56f, 1.0f}, ground{0.55f, 0.57f, 0.52f, 1.0f};
+    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+        switch (b.shape) {
+        case ShapeKind::Plane: {
+            const Vec3 n = b.normal;
+            Vec3 t = std::abs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 0, 1});
+            t = t * (1.0 / length(t));
+            const Vec3 s = cross(t, n);
+            draw(r.plane, model(b.position, {200, 1, 200}, s, n, t), ground, true);
+            break;
+        }
+        case ShapeKind::Sphere:
+            draw(r.sphere, model(b.position, {b.radius, b.radius, b.radius}), stone, false);
+            break;
+        case ShapeKind::Box:
+            draw(r.cube, model(b.position, b.halfExtents), stone, false);
+            break;
+        case ShapeKind::Cylinder:
+            draw(r.cylinder, model(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
+            break;
+        case ShapeKind::Capsule: {
+            draw(r.cylinder, model(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
+            for (double s : {-0.5, 0.5}) {
+                draw(r.sphere, model(b.position + Vec3{0, s * b.height, 0}, {b.radius, b.radius, b.radius}),
+                     stone, false);
+            }
+            break;
+        }
+        }
+    });
+}
+
+void drawCloth(const SpringNetwork& net, Renderer& r, const std::array<float, 4>& colour) {
+    // per-mass normals: the area-weighted sum of the triangles around it
+    r.normals.assign(net.x.size(), Vec3{});
+    for (const auto& t : net.triangles) {
+        const Vec3 n = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]);
+        for (std::uint32_t i : t) {
+            r.normals[i] += n;
+        }
+    }
+    r.clothVertices.clear();
+    for (const auto& t : net.triangles) {
+        for (std::uint32_t i : t) {
+            const double len = length(r.normals[i]);
+            pushVertex(r.clothVertices, net.x[i], len > 0 ? r.normals[i] * (1.0 / len) : Vec3{0, 0, 1});
+        }
+    }
+    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
+    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
+    glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, colour.data());
+    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
+    glBindVertexArray(r.clothVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
+                 GL_STREAM_DRAW);
+    glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
+}
+
+void drawFlat(Renderer& r, GLenum mode, bool round) {
+    if (r.flat.empty()) {
+        return;
+    }
+    glUniform1i(glGetUniformLocation(r.flatProgram, "uRound"), round ? 1 : 0);
+    glBindVertexArray(r.flatVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.flatVbo);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.flat.size() * sizeof(FlatVertex)), r.flat.data(),
+                 GL_STREAM_DRAW);
+    glDrawArrays(mode, 0, GLsizei(r.flat.size()));
+    r.flat.clear();
+}
+
+} // namespace
+
+void renderWorld(World& world, const StepContext& ctx) {
+    RenderOutput* output = world.tryResource<RenderOutput>();
+    if (!output || !output->enabled) {
+        return;
+    }
+    const SceneDef& scene = world.resource<SceneDef>();
+    Renderer& r = renderer(world, scene, *output);
+    r.target->bind();
+    glClearColor(0.62f, 0.74f, 0.86f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+
+    const Vec3 eye{scene.cameraEye[0], scene.cameraEye[1], scene.cameraEye[2]};
+    const Vec3 target{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
+    const double aspect = double(scene.renderWidth) / scene.renderHeight;
+    const Mat4 viewProjection =
+        multiply(perspective(scene.cameraFovDeg, aspect, 0.05, 500.0), lookAt(eye, target));
+    Vec3 light = (target - eye) * 0.5 + Vec3{0.0, -1.0, 0.0} * length(target - eye);
+    light = light * (1.0 / length(light));
+
+    // lit meshes: colliders and cloth
+    glUseProgram(r.meshProgram);
+    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uViewProjection"), 1, GL_FALSE,
+                       viewProjection.data());
+    glUniform3f(glGetUniformLocation(r.meshProgram, "uLightDir"), float(light.x), float(light.y),
+                float(light.z));
+    glUniform3f(glGetUniformLocation(r.meshProgram, "uEye"), float(eye.x), float(eye.y), float(eye.z));
+    drawColliders(world, r);
+    std::size_t drawn = 0;
+    world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+        if (net.kind == NetworkKind::Cloth && !net.triangles.empty()) {
+            drawCloth(net, r, palette(drawn));
+        }
+        ++drawn;
+    });
+
+    // lines and points: other spring networks, then particles (blended, after everything opaque)
+    glUseProgram(r.flatProgram);
+    glUniformMatrix4fv(glGetUniformLocation(r.flatProgram, "uViewProjection"), 1, GL_FALSE,
+                       viewProjection.data());
+    const double pixelsPerMetre =
+        scene.renderHeight / (2.0 * std::tan(scene.cameraFovDeg * std::numbers::pi / 360.0));
+    glUniform1f(glGetUniformLocation(r.flatProgram, "uPixelsPerMetre"), float(pixelsPerMetre));
+    drawn = 0;
+    world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+        const auto c = palette(drawn++);
+        if (net.kind == NetworkKind::Cloth && !net.triangles.empty()) {
+            return;
+        }
+        for (const SpringLink& s : net.links) {
+            for (std::uint32_t i : {s.a, s.b}) {
+                r.flat.push_back(
+                    {float(net.x[i].x), float(net.x[i].y), float(net.x[i].z), 0.2f, 0.2f, 0.22f, 1.0f, 0.0f});
+            }
+        }
+        drawFlat(r, GL_LINES, false);
+        const float size = float(std::max(0.03, 2.0 * net.thickness));
+        for (std::size_t i = 0; i < net.x.size(); ++i) {
+            r.flat.push_back(
+                {float(net.x[i].x), float(net.x[i].y), float(net.x[i].z), c[0], c[1], c[2], 1.0f, size});
+        }
+        drawFlat(r, GL_POINTS, true);
+    });
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glDepthMask(GL_FALSE);
+    world.view<const ParticleEmitter>().each([&](Entity, const ParticleEmitter& e) {
+        const ParticlePool& p = e.pool;
+        for (std::uint32_t i = 0; i < p.count; ++i) {
+            const float life = p.lifetime[i] > 0.0f ? std::min(1.0f, p.age[i] / p.lifetime[i]) : 1.0f;
+            const auto c = particleColor(e.def, life);
+            r.flat.push_back({p.px[i], p.py[i], p.pz[i], c[0], c[1], c[2], c[3], particleSize(e.def, life)});
+        }
+        drawFlat(r, GL_POINTS, true);
+    });
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+    r.drawn = true;
+
+    // keep this frame? every pngEvery frames, and the last frame always
+    const std::uint64_t frame = ctx.frame + 1;
+    if ((output->pngEvery > 0 && frame % output->pngEvery == 0) || frame == output->lastFrame) {
+        r.target->read(r.pixels);
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%05llu.png", static_cast<unsigned long long>(frame));
+        const std::string path = output->directory + "/" + name;
+        writePng(path, r.target->width(), r.target->height(), r.pixels);
+        output->written.push_back(path);
+    }
+}
+
+bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>& rgba) {
+    Renderer* r = world.tryResource<Renderer>();
+    if (!r || !r->drawn) {
+        return false;
+    }
+    r->target->read(rgba);
+    width = r->target->width();
+    height = r->target->height();
+    return true;
+}
+
+void registerRenderSystem(Catalog& catalog) {
+    catalog.addSystem(Phase::Frame, "render", renderWorld);
+}
+
+} // namespace tumble

@@ -1,0 +1,31 @@
+#pragma once
+// The renderer: a frame-phase system that draws the world headlessly (engine/gl_context.h) and writes PNG
+// frames. It only reads components, so rendering never changes the simulation or its hash.
+// Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, SpringNetwork,
+// ParticleEmitter. Writes: RenderOutput (the files written). Phase: frame.
+//
+// What it draws: static colliders as lit meshes (a plane as a gridded ground), cloth as a two-sided lit
+// surface with per-vertex normals, other spring networks as lines with their masses as points, and
+// particles as round, blended points sized in metres, coloured over their life. The key light comes from
+// above and behind the camera; a soft sky light and a darkening near the ground stand in for shadows.
+
+#include "engine/catalog.h"
+#include "engine/step_context.h"
+#include "engine/world.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace tumble {
+
+/// Draws the world into the offscreen framebuffer, and writes a PNG when this frame is one to keep.
+void renderWorld(World& world, const StepContext& ctx);
+
+/// Reads back the last drawn image (RGBA, top row first); false if nothing was drawn yet.
+bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>& rgba);
+
+/// Registers the renderer as the frame phase's system.
+void registerRenderSystem(Catalog& catalog);
+
+} // namespace tumble
