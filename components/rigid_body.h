@@ -22,6 +22,7 @@ struct RigidBody {
     double friction = 0.6;
     double restitution = 0.0;
     Vec3 position; ///< m, centre (plane: a point on it)
+    Vec3 color{0.62, 0.60, 0.56}; ///< RGB in [0, 1], for the renderer only
 };
 
 } // namespace tumble

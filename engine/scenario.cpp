@@ -194,6 +194,7 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
         TableReader r(*t, "[render]", ctx);
         scene.renderWidth = static_cast<int>(r.integer("width", scene.renderWidth, 16, 8192));
         scene.renderHeight = static_cast<int>(r.integer("height", scene.renderHeight, 16, 8192));
+        scene.background = r.vector<3>("background", scene.background, 0.0, 1.0);
         r.finish();
     }
 }

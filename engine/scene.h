@@ -25,6 +25,7 @@ struct SceneDef {
     double cameraFovDeg = 45.0;
     int renderWidth = 1280;
     int renderHeight = 720;
+    std::array<double, 3> background{0.62, 0.74, 0.86}; ///< RGB in [0, 1], the sky behind everything
 
     /// Simulated time of one frame, s.
     double frameSeconds() const { return dt * substeps; }

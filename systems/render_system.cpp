@@ -272,8 +272,9 @@ void drawColliders(World& world, Renderer& r) {
         glBindVertexArray(m.vao);
         glDrawArrays(GL_TRIANGLES, 0, m.vertices);
     };
-    const std::array<float, 4> stone{0.62f, 0.60f, 0.56f, 1.0f}, ground{0.55f, 0.57f, 0.52f, 1.0f};
     world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+        const std::array<float, 4> stone{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
+        const std::array<float, 4>& ground = stone;
         switch (b.shape) {
         case ShapeKind::Plane: {
             const Vec3 n = b.normal;
@@ -354,7 +355,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     const SceneDef& scene = world.resource<SceneDef>();
     Renderer& r = renderer(world, scene, *output);
     r.target->bind();
-    glClearColor(0.62f, 0.74f, 0.86f, 1.0f);
+    glClearColor(float(scene.background[0]), float(scene.background[1]), float(scene.background[2]), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
@@ -403,7 +404,7 @@ void renderWorld(World& world, const StepContext& ctx) {
             }
         }
         drawFlat(r, GL_LINES, false);
-        const float size = float(std::max(0.03, 2.0 * net.thickness));
+        const float size = float(std::max(0.08, 2.0 * net.thickness));
         for (std::size_t i = 0; i < net.x.size(); ++i) {
             r.flat.push_back(
                 {float(net.x[i].x), float(net.x[i].y), float(net.x[i].z), c[0], c[1], c[2], 1.0f, size});

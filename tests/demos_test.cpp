@@ -1,10 +1,11 @@
-// Every demo in demos/ loads, runs a few frames headlessly, and dumps a finite state.
-// (Rendered runs and replay verification join when the renderer and replays land.)
+// Every demo in demos/ loads, runs a few frames headlessly and dumps a finite state, and renders a frame
+// with something in it. (Replay verification joins when replays land.)
 
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <stb/stb_image.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -36,6 +37,24 @@ TEST_P(Demo, RunsHeadlesslyForAFewFrames) {
     const auto j = nlohmann::json::parse(text);
     EXPECT_EQ(j["frame"], 10);
     EXPECT_FALSE(j["entities"].empty());
+}
+
+TEST_P(Demo, RendersAFrameWithSomethingInIt) {
+    const std::string out = test::tempPath(GetParam() + "_render");
+    const auto r = test::runTumble({"run", GetParam(), "--frames", "3", "--quiet", "--out", out});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::string png = out + "/frame_00003.png";
+    int w = 0, h = 0, channels = 0;
+    stbi_uc* pixels = stbi_load(png.c_str(), &w, &h, &channels, 3);
+    ASSERT_NE(pixels, nullptr) << png;
+    // not one flat colour: the camera sees the scene
+    std::size_t differ = 0;
+    for (int i = 1; i < w * h; ++i) {
+        differ +=
+            pixels[3 * i] != pixels[0] || pixels[3 * i + 1] != pixels[1] || pixels[3 * i + 2] != pixels[2];
+    }
+    stbi_image_free(pixels);
+    EXPECT_GT(differ, std::size_t(w) * std::size_t(h) / 200) << png;
 }
 
 TEST_P(Demo, NameMatchesItsFile) {

@@ -53,9 +53,17 @@ std::string readFile(const std::string& path) {
     return ss.str();
 }
 
-ProcessResult runTumble(const std::vector<std::string>& args) {
+ProcessResult runTumble(const std::vector<std::string>& args, const std::vector<std::string>& environment) {
     const std::string errPath = tempPath("stderr.txt");
-    std::string cmd = shellQuote(TUMBLE_BINARY);
+    std::string cmd;
+    if (!environment.empty()) {
+        cmd = "env";
+        for (const std::string& e : environment) {
+            cmd += " " + shellQuote(e);
+        }
+        cmd += " ";
+    }
+    cmd += shellQuote(TUMBLE_BINARY);
     for (const std::string& a : args) {
         cmd += " " + shellQuote(a);
     }

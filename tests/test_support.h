@@ -17,8 +17,10 @@ struct ProcessResult {
     std::string err; ///< stderr
 };
 
-/// Runs the built `tumble` with the given arguments (each shell-quoted), stdin from /dev/null.
-ProcessResult runTumble(const std::vector<std::string>& args);
+/// Runs the built `tumble` with the given arguments (each shell-quoted), stdin from /dev/null; `environment`
+/// (NAME=value words) is set for it alone.
+ProcessResult runTumble(const std::vector<std::string>& args,
+                        const std::vector<std::string>& environment = {});
 
 /// A fresh path under the tests' temporary folder (the folder exists; the file does not).
 std::string tempPath(const std::string& name);
