@@ -4,6 +4,7 @@
 #include "engine/render_output.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
+#include "engine/video_encoder.h"
 
 #include <CLI/CLI.hpp>
 
@@ -85,6 +86,7 @@ struct RunOptions {
     std::string dump;
     std::int64_t dumpEvery = 0;
     std::int64_t pngEvery = 0;
+    std::string video;
     bool quiet = false;
     bool progress = false;
 };
@@ -146,6 +148,19 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     render.directory = outDir;
     render.pngEvery = static_cast<std::uint64_t>(o.pngEvery);
     render.lastFrame = frames;
+    std::unique_ptr<VideoEncoder> video;
+    if (!o.video.empty()) {
+        if (o.noRender) {
+            throw ScenarioError(o.video, 0, 0, "--video needs rendering; it cannot go with --no-render");
+        }
+        const std::string ext = fs::path(o.video).extension().string();
+        if (ext != ".mp4" && ext != ".gif") {
+            throw ScenarioError(o.video, 0, 0, "--video: the file must end in .mp4 or .gif");
+        }
+        video = std::make_unique<VideoEncoder>(o.video, scene.renderWidth, scene.renderHeight,
+                                               1.0 / scene.frameSeconds());
+        render.video = [&video](const std::vector<std::uint8_t>& rgba) { video->push(rgba); };
+    }
 
     // the first Ctrl-C stops the run at the next frame and keeps the outputs; a second one kills it
     struct sigaction stop {};
@@ -216,6 +231,10 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
                          "to see them all\n",
                          Profiler::kMaxTraceEvents);
         }
+    }
+    if (video) {
+        video->finish();
+        wrote.push_back(video->path() + " (" + std::to_string(video->frames()) + " frames)");
     }
     const std::vector<std::string>& pngs = sim.world().resource<RenderOutput>().written;
     if (!pngs.empty()) {
@@ -315,6 +334,8 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
         ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
     run->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
     run->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
+    run->add_option("--video", o.video, "Encode the rendered frames to FILE (.mp4 or .gif) through ffmpeg")
+        ->type_name("FILE");
     run->add_option(
            "--png-every", o.pngEvery,
            "Write frame_NNNNN.png into the output folder every K frames (0: the last frame only, the "

@@ -3,6 +3,7 @@
 // where PNG frames go and which frames to keep. The renderer (a system) reads it and lists what it wrote.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,8 @@ struct RenderOutput {
     std::uint64_t lastFrame = 0;      ///< the run's final frame number (always written)
     std::vector<std::string> written; ///< PNG files written so far
     std::string device;               ///< the GL version, renderer and EGL platform used
+    /// When set, every rendered frame's pixels (RGBA, top row first) go here (the video encoder).
+    std::function<void(const std::vector<std::uint8_t>& rgba)> video;
 };
 
 } // namespace tumble

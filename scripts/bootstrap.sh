@@ -15,7 +15,7 @@ packages=(
     g++ cmake ninja-build pkg-config git
     libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev
     libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
-    libegl-dev libgles-dev libegl-mesa0
+    libegl-dev libgles-dev libegl-mesa0 ffmpeg
 )
 
 install_missing() {

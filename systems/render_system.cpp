@@ -427,10 +427,16 @@ void renderWorld(World& world, const StepContext& ctx) {
     glDisable(GL_BLEND);
     r.drawn = true;
 
-    // keep this frame? every pngEvery frames, and the last frame always
+    // keep this frame? every pngEvery frames, and the last frame always; every frame for a video
     const std::uint64_t frame = ctx.frame + 1;
-    if ((output->pngEvery > 0 && frame % output->pngEvery == 0) || frame == output->lastFrame) {
+    const bool png = (output->pngEvery > 0 && frame % output->pngEvery == 0) || frame == output->lastFrame;
+    if (png || output->video) {
         r.target->read(r.pixels);
+    }
+    if (output->video) {
+        output->video(r.pixels);
+    }
+    if (png) {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%05llu.png", static_cast<unsigned long long>(frame));
         const std::string path = output->directory + "/" + name;

@@ -11,6 +11,7 @@
 #include <stb/stb_image.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <numbers>
 
@@ -173,6 +174,34 @@ TEST(RenderSystem, NoEglDisplayIsAClearErrorNotACrash) {
         {"run", "pendulum", "--frames", "2", "--no-render", "--out", test::tempPath("noegl2")},
         {"__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json", "__EGL_VENDOR_LIBRARY_DIRS=/nonexistent"});
     EXPECT_EQ(simulated.exitCode, 0) << "--no-render needs no EGL: " << simulated.err;
+}
+
+TEST(RenderSystem, AVideoOfNFramesHasNFrames) {
+    for (const char* ext : {".mp4", ".gif"}) {
+        const std::string video = test::tempPath(std::string("clip") + ext);
+        const auto r = test::runTumble({"run", "fountain", "--frames", "24", "--video", video, "--quiet",
+                                        "--out", test::tempPath("clip")});
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        // ffprobe decodes the whole file and counts its frames
+        const std::string count = test::tempPath("frames.txt");
+        const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                                  "stream=nb_read_frames -of csv=p=0 '" +
+                                  video + "' > '" + count + "'";
+        ASSERT_EQ(std::system(probe.c_str()), 0) << probe;
+        EXPECT_EQ(std::stoi(test::readFile(count)), 24) << ext;
+    }
+}
+
+TEST(RenderSystem, VideoWithoutFfmpegIsAClearError) {
+    const auto r = test::runTumble({"run", "pendulum", "--frames", "2", "--video", test::tempPath("x.mp4"),
+                                    "--out", test::tempPath("noffmpeg")},
+                                   {"PATH=/nonexistent"});
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("ffmpeg"), std::string::npos) << r.err;
+    const auto bad =
+        test::runTumble({"run", "pendulum", "--frames", "2", "--video", test::tempPath("x.avi")});
+    EXPECT_EQ(bad.exitCode, 2) << "a bad file name is bad input";
+    EXPECT_NE(bad.err.find(".mp4 or .gif"), std::string::npos) << bad.err;
 }
 
 } // namespace
