@@ -49,9 +49,9 @@ case "$mode" in
 demo)
     build build -DCMAKE_BUILD_TYPE=Release
     out="$root/out/curtain"
-    "$root/build/tumble" run curtain --no-render --out "$out" \
+    "$root/build/tumble" run curtain --out "$out" \
         --profile "$out/profile.json" --trace "$out/trace.json" --dump "$out/state.jsonl"
-    echo "bootstrap: outputs are in $out (profile.json, trace.json, state.jsonl)"
+    echo "bootstrap: outputs are in $out (frame_00600.png, profile.json, trace.json, state.jsonl)"
     ;;
 test)
     build build -DCMAKE_BUILD_TYPE=Release

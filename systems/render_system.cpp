@@ -362,9 +362,7 @@ void renderWorld(World& world, const StepContext& ctx) {
 
     const Vec3 eye{scene.cameraEye[0], scene.cameraEye[1], scene.cameraEye[2]};
     const Vec3 target{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
-    const double aspect = double(scene.renderWidth) / scene.renderHeight;
-    const Mat4 viewProjection =
-        multiply(perspective(scene.cameraFovDeg, aspect, 0.05, 500.0), lookAt(eye, target));
+    const Mat4 viewProjection = tumble::viewProjection(scene);
     Vec3 light = (target - eye) * 0.5 + Vec3{0.0, -1.0, 0.0} * length(target - eye);
     light = light * (1.0 / length(light));
 
@@ -443,6 +441,13 @@ void renderWorld(World& world, const StepContext& ctx) {
         writePng(path, r.target->width(), r.target->height(), r.pixels);
         output->written.push_back(path);
     }
+}
+
+std::array<float, 16> viewProjection(const SceneDef& scene) {
+    const Vec3 eye{scene.cameraEye[0], scene.cameraEye[1], scene.cameraEye[2]};
+    const Vec3 target{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
+    const double aspect = double(scene.renderWidth) / scene.renderHeight;
+    return multiply(perspective(scene.cameraFovDeg, aspect, 0.05, 500.0), lookAt(eye, target));
 }
 
 bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>& rgba) {

@@ -10,9 +10,11 @@
 // above and behind the camera; a soft sky light and a darkening near the ground stand in for shadows.
 
 #include "engine/catalog.h"
+#include "engine/scene.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -24,6 +26,9 @@ void renderWorld(World& world, const StepContext& ctx);
 
 /// Reads back the last drawn image (RGBA, top row first); false if nothing was drawn yet.
 bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>& rgba);
+
+/// The camera's view-projection matrix (column-major), as the renderer uses it.
+std::array<float, 16> viewProjection(const SceneDef& scene);
 
 /// Registers the renderer as the frame phase's system.
 void registerRenderSystem(Catalog& catalog);

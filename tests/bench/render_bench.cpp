@@ -1,0 +1,129 @@
+// Rendering the curtain demo at 1280 x 720 on this machine's GL (llvmpipe here): one frame drawn and read
+// back by the renderer, and, for the ratio, a raw EGL program drawing the same triangles (the cloth and
+// the ground) with the renderer's own shader and reading them back: the difference is the renderer's
+// work around the draw (normals, uploads, state), not its shading.
+//   build/tests/bench/tumble_bench --benchmark_filter=Render --benchmark_repetitions=5
+
+#include "components/rigid_body.h"
+#include "components/spring_network.h"
+#include "engine/gl_context.h"
+#include "engine/render_output.h"
+#include "engine/simulation.h"
+#include "systems/builtin.h"
+#include "systems/render_system.h"
+
+#include <GLES3/gl3.h>
+#include <benchmark/benchmark.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace tumble {
+namespace {
+
+std::unique_ptr<Simulation> billowingCurtain(bool render) {
+    static const Catalog catalog = [] {
+        Catalog c;
+        registerBuiltinSystems(c);
+        return c;
+    }();
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
+    auto sim =
+        std::make_unique<Simulation>(catalog, path, readScenarioFile(path), std::vector<std::string>{});
+    RenderOutput& out = sim->world().setResource<RenderOutput>();
+    out.enabled = render;
+    out.lastFrame = 0; // no PNG files
+    for (int i = 0; i < 60; ++i) {
+        sim->runFrame();
+    }
+    return sim;
+}
+
+void BM_RenderCurtainFrame(benchmark::State& state) {
+    auto sim = billowingCurtain(true);
+    StepContext ctx;
+    std::vector<std::uint8_t> pixels;
+    int w = 0, h = 0;
+    for (auto _ : state) {
+        renderWorld(sim->world(), ctx);
+        lastImage(sim->world(), w, h, pixels); // glReadPixels waits for the frame to be finished
+        benchmark::DoNotOptimize(pixels.data());
+    }
+    state.counters["pixels"] = double(w) * double(h);
+}
+BENCHMARK(BM_RenderCurtainFrame)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+void BM_RawEglCurtainFrame(benchmark::State& state) {
+    // the triangles the renderer draws: the cloth (with flat per-triangle normals) and a ground quad
+    auto sim = billowingCurtain(false);
+    std::vector<float> vertices;
+    sim->world().view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+        for (const auto& t : net.triangles) {
+            const Vec3 n = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]);
+            for (std::uint32_t i : t) {
+                vertices.insert(vertices.end(), {float(net.x[i].x), float(net.x[i].y), float(net.x[i].z),
+                                                 float(n.x), float(n.y), float(n.z)});
+            }
+        }
+    });
+    for (const auto& p :
+         {std::array{-200.f, 0.f, -200.f}, std::array{200.f, 0.f, 200.f}, std::array{200.f, 0.f, -200.f},
+          std::array{-200.f, 0.f, -200.f}, std::array{-200.f, 0.f, 200.f}, std::array{200.f, 0.f, 200.f}}) {
+        vertices.insert(vertices.end(), {p[0], p[1], p[2], 0.f, 1.f, 0.f});
+    }
+    GlContext context;
+    Framebuffer target(1280, 720);
+    // the renderer's own shader, so that the difference is the renderer's work, not its shading
+    auto readText = [](const std::string& path) {
+        std::ifstream in(path);
+        std::ostringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    };
+    const std::string shaders = assetDirectory() + "/shaders/";
+    const unsigned program =
+        compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "mesh.frag"), "mesh");
+    GLuint vao = 0, vbo = 0;
+    glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<void*>(3 * sizeof(float)));
+    glUseProgram(program);
+    const auto vp = viewProjection(sim->scene());
+    const float identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    glUniformMatrix4fv(glGetUniformLocation(program, "uViewProjection"), 1, GL_FALSE, vp.data());
+    glUniformMatrix4fv(glGetUniformLocation(program, "uModel"), 1, GL_FALSE, identity);
+    glUniform3f(glGetUniformLocation(program, "uLightDir"), 0.0f, -0.8f, -0.6f);
+    glUniform3f(glGetUniformLocation(program, "uEye"), 1.8f, 1.2f, 4.5f);
+    glUniform4f(glGetUniformLocation(program, "uColor"), 0.8f, 0.3f, 0.25f, 1.0f);
+    const GLsizei clothVertices = GLsizei(vertices.size() / 6) - 6;
+    std::vector<std::uint8_t> pixels;
+    for (auto _ : state) {
+        target.bind();
+        glClearColor(0.6f, 0.7f, 0.9f, 1.0f);
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        glEnable(GL_DEPTH_TEST);
+        glBindBuffer(GL_ARRAY_BUFFER, vbo);
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(),
+                     GL_STREAM_DRAW);
+        glUniform1f(glGetUniformLocation(program, "uGrid"), 0.0f);
+        glDrawArrays(GL_TRIANGLES, 0, clothVertices);
+        glUniform1f(glGetUniformLocation(program, "uGrid"), 1.0f);
+        glDrawArrays(GL_TRIANGLES, clothVertices, 6);
+        target.read(pixels);
+        benchmark::DoNotOptimize(pixels.data());
+    }
+    glDeleteBuffers(1, &vbo);
+    glDeleteVertexArrays(1, &vao);
+    glDeleteProgram(program);
+}
+BENCHMARK(BM_RawEglCurtainFrame)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+} // namespace
+} // namespace tumble
