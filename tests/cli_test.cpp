@@ -44,8 +44,8 @@ TEST(Cli, HelpForEveryVerb) {
         EXPECT_NE(top.out.find(verb), std::string::npos) << verb;
     }
     const auto run = runTumble({"run", "--help"});
-    for (const char* opt : {"--frames", "--out", "--no-render", "--dump", "--dump-every", "--profile",
-                            "--trace", "--set", "--quiet"}) {
+    for (const char* opt : {"--frames", "--out", "--no-render", "--png-every", "--video", "--dump",
+                            "--dump-every", "--profile", "--trace", "--set", "--quiet"}) {
         EXPECT_NE(run.out.find(opt), std::string::npos) << opt;
     }
 }
