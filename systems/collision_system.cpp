@@ -73,8 +73,8 @@ void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&)
     b.friction = r.number("friction", 0.6, 0.0, 100.0);
     b.restitution = r.number("restitution", 0.0, 0.0, 1.0);
     const bool plane = b.shape == ShapeKind::Plane;
-    const auto color = r.vector<3>("color", plane ? std::array{0.55, 0.57, 0.52} : std::array{0.62, 0.60, 0.56},
-                                   0.0, 1.0);
+    const auto color =
+        r.vector<3>("color", plane ? std::array{0.55, 0.57, 0.52} : std::array{0.62, 0.60, 0.56}, 0.0, 1.0);
     b.color = {color[0], color[1], color[2]};
     b.position = world.get<Transform>(entity).position;
     world.emplace<RigidBody>(entity, b);

@@ -305,7 +305,8 @@ void drawColliders(World& world, Renderer& r) {
     });
 }
 
-void drawCloth(const SpringNetwork& net, Renderer& r, const std::array<float, 4>& colour) {
+/// A network with surface triangles (cloth, the outside of a soft body), lit, with smooth normals.
+void drawSurface(const SpringNetwork& net, Renderer& r, const std::array<float, 4>& colour) {
     // per-mass normals: the area-weighted sum of the triangles around it
     r.normals.assign(net.x.size(), Vec3{});
     for (const auto& t : net.triangles) {
@@ -376,8 +377,8 @@ void renderWorld(World& world, const StepContext& ctx) {
     drawColliders(world, r);
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
-        if (net.kind == NetworkKind::Cloth && !net.triangles.empty()) {
-            drawCloth(net, r, palette(drawn));
+        if (!net.triangles.empty()) {
+            drawSurface(net, r, palette(drawn));
         }
         ++drawn;
     });
@@ -392,8 +393,8 @@ void renderWorld(World& world, const StepContext& ctx) {
     drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
         const auto c = palette(drawn++);
-        if (net.kind == NetworkKind::Cloth && !net.triangles.empty()) {
-            return;
+        if (!net.triangles.empty()) {
+            return; // drawn as a surface
         }
         for (const SpringLink& s : net.links) {
             for (std::uint32_t i : {s.a, s.b}) {

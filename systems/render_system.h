@@ -4,8 +4,9 @@
 // Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, SpringNetwork,
 // ParticleEmitter. Writes: RenderOutput (the files written). Phase: frame.
 //
-// What it draws: static colliders as lit meshes (a plane as a gridded ground), cloth as a two-sided lit
-// surface with per-vertex normals, other spring networks as lines with their masses as points, and
+// What it draws: static colliders as lit meshes (a plane as a gridded ground), cloth and soft bodies as
+// lit surfaces with per-vertex normals (cloth two-sided), other spring networks (springs, ropes) as lines
+// with their masses as points, and
 // particles as round, blended points sized in metres, coloured over their life. The key light comes from
 // above and behind the camera; a soft sky light and a darkening near the ground stand in for shadows.
 

@@ -168,6 +168,36 @@ SpringNetwork buildSoftBody(const SoftBodyDef& def) {
             }
         }
     }
+    // the six faces of the lattice as triangles facing outwards, for the renderer (wind acts on cloth only)
+    auto face = [&](int axis, int side) {
+        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+        const int res[3] = {nx, ny, nz};
+        auto corner = [&](int a, int b) {
+            int c[3];
+            c[axis] = side ? res[axis] - 1 : 0;
+            c[u] = a;
+            c[v] = b;
+            return at(c[0], c[1], c[2]);
+        };
+        for (int a = 0; a + 1 < res[u]; ++a) {
+            for (int b = 0; b + 1 < res[v]; ++b) {
+                const std::uint32_t p00 = corner(a, b), p10 = corner(a + 1, b), p11 = corner(a + 1, b + 1),
+                                    p01 = corner(a, b + 1);
+                // (u, v, axis) is right-handed: u x v points along +axis, so the +axis face keeps that order
+                if (side) {
+                    net.triangles.push_back({p00, p10, p11});
+                    net.triangles.push_back({p00, p11, p01});
+                } else {
+                    net.triangles.push_back({p00, p11, p10});
+                    net.triangles.push_back({p00, p01, p11});
+                }
+            }
+        }
+    };
+    for (int axis = 0; axis < 3; ++axis) {
+        face(axis, 0);
+        face(axis, 1);
+    }
     net.grid = {static_cast<std::uint32_t>(nx), static_cast<std::uint32_t>(ny),
                 static_cast<std::uint32_t>(nz)};
     pinMasses(net, def.pins);

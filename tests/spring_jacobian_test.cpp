@@ -171,3 +171,26 @@ TEST(ClothBuilder, FlatClothFacesUp) {
 
 } // namespace
 } // namespace tumble
+
+namespace tumble {
+namespace {
+
+TEST(SoftBodyBuilder, SurfaceTrianglesCoverTheOutsideFacingOut) {
+    SoftBodyDef def;
+    def.resolution = {3, 4, 5};
+    def.size = {1.0, 2.0, 3.0};
+    const SpringNetwork net = buildSoftBody(def);
+    // two triangles per surface quad: 2 (2*3 + 3*4 + 2*4) quads on the six faces
+    EXPECT_EQ(net.triangles.size(), 2u * 2u * (2u * 3u + 3u * 4u + 2u * 4u));
+    double area = 0.0;
+    for (const auto& t : net.triangles) {
+        const Vec3 n = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]);
+        const Vec3 centroid = (net.x[t[0]] + net.x[t[1]] + net.x[t[2]]) * (1.0 / 3.0);
+        EXPECT_GT(dot(n, centroid - def.centre), 0.0) << "faces outwards";
+        area += 0.5 * length(n);
+    }
+    EXPECT_NEAR(area, 2.0 * (1.0 * 2.0 + 2.0 * 3.0 + 1.0 * 3.0), 1e-9) << "the whole outside, once";
+}
+
+} // namespace
+} // namespace tumble
