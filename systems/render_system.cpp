@@ -181,7 +181,7 @@ std::vector<float> cylinderMesh(int slices = 32) {
     return out;
 }
 
-/// A vertex of the flat shader: position, colour, size.
+/// A vertex of a line (position, colour; size unused) or a particle instance (centre, colour, size).
 struct FlatVertex {
     float x, y, z;
     float r, g, b, a;
@@ -192,13 +192,17 @@ struct FlatVertex {
 struct Renderer {
     std::unique_ptr<GlContext> context;
     std::unique_ptr<Framebuffer> target;
-    GLuint meshProgram = 0, flatProgram = 0;
+    GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
     Mesh sphere, cube, cylinder, plane;
+    Mesh ball;                ///< a coarse sphere, drawn once per mass (instanced)
+    GLuint ballInstances = 0; ///< per mass: offset and radius
     GLuint clothVao = 0, clothVbo = 0, flatVao = 0, flatVbo = 0;
-    std::vector<float> clothVertices; ///< scratch: position + normal per corner
-    std::vector<Vec3> normals;        ///< scratch: per-mass normals of a cloth
-    std::vector<FlatVertex> flat;     ///< scratch: lines and points
-    std::vector<std::uint8_t> pixels; ///< the last image read back
+    GLuint particleVao = 0, particleVbo = 0; ///< per particle: centre, colour, size (instanced quads)
+    std::vector<float> instances;            ///< scratch: ball instances
+    std::vector<float> clothVertices;        ///< scratch: position + normal per corner
+    std::vector<Vec3> normals;               ///< scratch: per-mass normals of a cloth
+    std::vector<FlatVertex> flat;            ///< scratch: line vertices or particle instances
+    std::vector<std::uint8_t> pixels;        ///< the last image read back
     bool drawn = false;
 };
 
@@ -233,6 +237,23 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
         pushVertex(quad, p, {0, 1, 0});
     }
     r.plane = upload(quad);
+    r.ball = upload(sphereMesh(12, 6));
+    glBindVertexArray(r.ball.vao);
+    glGenBuffers(1, &r.ballInstances);
+    glBindBuffer(GL_ARRAY_BUFFER, r.ballInstances);
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, 4 * sizeof(float), nullptr);
+    glVertexAttribDivisor(2, 1);
+    r.particleProgram =
+        compileProgram(readText(shaders + "particle.vert"), readText(shaders + "particle.frag"), "particle");
+    glGenVertexArrays(1, &r.particleVao);
+    glGenBuffers(1, &r.particleVbo);
+    glBindVertexArray(r.particleVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.particleVbo);
+    setupFlatAttributes();
+    for (GLuint a : {0u, 1u, 2u}) {
+        glVertexAttribDivisor(a, 1);
+    }
     glGenVertexArrays(1, &r.clothVao);
     glGenBuffers(1, &r.clothVbo);
     glBindVertexArray(r.clothVao);
@@ -333,16 +354,15 @@ void drawSurface(const SpringNetwork& net, Renderer& r, const std::array<float, 
     glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
 }
 
-void drawFlat(Renderer& r, GLenum mode, bool round) {
+void drawLines(Renderer& r) {
     if (r.flat.empty()) {
         return;
     }
-    glUniform1i(glGetUniformLocation(r.flatProgram, "uRound"), round ? 1 : 0);
     glBindVertexArray(r.flatVao);
     glBindBuffer(GL_ARRAY_BUFFER, r.flatVbo);
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.flat.size() * sizeof(FlatVertex)), r.flat.data(),
                  GL_STREAM_DRAW);
-    glDrawArrays(mode, 0, GLsizei(r.flat.size()));
+    glDrawArrays(GL_LINES, 0, GLsizei(r.flat.size()));
     r.flat.clear();
 }
 
@@ -367,8 +387,10 @@ void renderWorld(World& world, const StepContext& ctx) {
     Vec3 light = (target - eye) * 0.5 + Vec3{0.0, -1.0, 0.0} * length(target - eye);
     light = light * (1.0 / length(light));
 
-    // lit meshes: colliders and cloth
+    // lit meshes: colliders and cloth; attribute 2 (the per-instance offset and scale) is (0, 0, 0, 1) for
+    // every draw that is not instanced
     glUseProgram(r.meshProgram);
+    glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
     glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uViewProjection"), 1, GL_FALSE,
                        viewProjection.data());
     glUniform3f(glGetUniformLocation(r.meshProgram, "uLightDir"), float(light.x), float(light.y),
@@ -384,15 +406,11 @@ void renderWorld(World& world, const StepContext& ctx) {
     });
 
     // lines and points: other spring networks, then particles (blended, after everything opaque)
+    // other spring networks: their springs as lines, their masses as small lit balls (instanced)
     glUseProgram(r.flatProgram);
     glUniformMatrix4fv(glGetUniformLocation(r.flatProgram, "uViewProjection"), 1, GL_FALSE,
                        viewProjection.data());
-    const double pixelsPerMetre =
-        scene.renderHeight / (2.0 * std::tan(scene.cameraFovDeg * std::numbers::pi / 360.0));
-    glUniform1f(glGetUniformLocation(r.flatProgram, "uPixelsPerMetre"), float(pixelsPerMetre));
-    drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
-        const auto c = palette(drawn++);
         if (!net.triangles.empty()) {
             return; // drawn as a surface
         }
@@ -402,25 +420,57 @@ void renderWorld(World& world, const StepContext& ctx) {
                     {float(net.x[i].x), float(net.x[i].y), float(net.x[i].z), 0.2f, 0.2f, 0.22f, 1.0f, 0.0f});
             }
         }
-        drawFlat(r, GL_LINES, false);
-        const float size = float(std::max(0.08, 2.0 * net.thickness));
-        for (std::size_t i = 0; i < net.x.size(); ++i) {
-            r.flat.push_back(
-                {float(net.x[i].x), float(net.x[i].y), float(net.x[i].z), c[0], c[1], c[2], 1.0f, size});
-        }
-        drawFlat(r, GL_POINTS, true);
+        drawLines(r);
     });
+    glUseProgram(r.meshProgram);
+    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
+    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
+    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
+    drawn = 0;
+    world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+        const auto c = palette(drawn++);
+        if (!net.triangles.empty()) {
+            return;
+        }
+        const float radius = float(std::max(0.04, net.thickness));
+        r.instances.clear();
+        for (const Vec3& x : net.x) {
+            r.instances.insert(r.instances.end(), {float(x.x), float(x.y), float(x.z), radius});
+        }
+        glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, c.data());
+        glBindVertexArray(r.ball.vao);
+        glBindBuffer(GL_ARRAY_BUFFER, r.ballInstances);
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.instances.size() * sizeof(float)), r.instances.data(),
+                     GL_STREAM_DRAW);
+        glDrawArraysInstanced(GL_TRIANGLES, 0, r.ball.vertices, GLsizei(net.x.size()));
+    });
+
+    // particles: camera-facing quads (instanced), blended after everything opaque
+    glUseProgram(r.particleProgram);
+    glUniformMatrix4fv(glGetUniformLocation(r.particleProgram, "uViewProjection"), 1, GL_FALSE,
+                       viewProjection.data());
+    const Mat4 view = lookAt(eye, target);
+    glUniform3f(glGetUniformLocation(r.particleProgram, "uRight"), view[0], view[4], view[8]);
+    glUniform3f(glGetUniformLocation(r.particleProgram, "uUp"), view[1], view[5], view[9]);
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     glDepthMask(GL_FALSE);
     world.view<const ParticleEmitter>().each([&](Entity, const ParticleEmitter& e) {
         const ParticlePool& p = e.pool;
+        if (p.count == 0) {
+            return;
+        }
         for (std::uint32_t i = 0; i < p.count; ++i) {
             const float life = p.lifetime[i] > 0.0f ? std::min(1.0f, p.age[i] / p.lifetime[i]) : 1.0f;
             const auto c = particleColor(e.def, life);
             r.flat.push_back({p.px[i], p.py[i], p.pz[i], c[0], c[1], c[2], c[3], particleSize(e.def, life)});
         }
-        drawFlat(r, GL_POINTS, true);
+        glBindVertexArray(r.particleVao);
+        glBindBuffer(GL_ARRAY_BUFFER, r.particleVbo);
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.flat.size() * sizeof(FlatVertex)), r.flat.data(),
+                     GL_STREAM_DRAW);
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(r.flat.size()));
+        r.flat.clear();
     });
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);

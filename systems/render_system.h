@@ -6,9 +6,9 @@
 //
 // What it draws: static colliders as lit meshes (a plane as a gridded ground), cloth and soft bodies as
 // lit surfaces with per-vertex normals (cloth two-sided), other spring networks (springs, ropes) as lines
-// with their masses as points, and
-// particles as round, blended points sized in metres, coloured over their life. The key light comes from
-// above and behind the camera; a soft sky light and a darkening near the ground stand in for shadows.
+// with their masses as small lit balls (instanced), and particles as round, blended camera-facing quads
+// (instanced) sized in metres and coloured over their life. The key light comes from above and behind the
+// camera; a soft sky light and a darkening near the ground stand in for shadows.
 
 #include "engine/catalog.h"
 #include "engine/scene.h"
