@@ -16,15 +16,8 @@ namespace {
 
 using test::simulate;
 
-const SpringNetwork& network(Simulation& sim, const std::string& name) {
-    const SpringNetwork* out = nullptr;
-    sim.world().view<const Name, const SpringNetwork>().each(
-        [&](Entity, const Name& n, const SpringNetwork& net) {
-            if (n.value == name) {
-                out = &net;
-            }
-        });
-    return *out;
+SpringNetwork& network(Simulation& sim, const std::string& name) {
+    return test::component<SpringNetwork>(sim, name);
 }
 
 double maxSpeed(const SpringNetwork& net) {

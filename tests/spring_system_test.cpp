@@ -15,13 +15,7 @@ namespace {
 using test::simulate;
 
 SpringNetwork& network(Simulation& sim, const std::string& name) {
-    SpringNetwork* out = nullptr;
-    sim.world().view<const Name, SpringNetwork>().each([&](Entity, const Name& n, SpringNetwork& net) {
-        if (n.value == name) {
-            out = &net;
-        }
-    });
-    return *out;
+    return test::component<SpringNetwork>(sim, name);
 }
 
 /// One free mass on a spring of rest length 1 from a pin at the origin, no gravity: a 1D oscillator along x

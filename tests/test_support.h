@@ -1,10 +1,12 @@
 #pragma once
 // Helpers shared by the tests: running the real `tumble` program, temporary files, loading a scenario.
 
+#include "components/name.h"
 #include "engine/catalog.h"
 #include "engine/simulation.h"
 
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -33,6 +35,21 @@ std::string readFile(const std::string& path);
 
 /// The catalog of built-in systems.
 const Catalog& builtinCatalog();
+
+/// The component T of the entity with this name; fails the test (and throws) if there is none.
+template <class T>
+T& component(Simulation& sim, const std::string& name) {
+    T* out = nullptr;
+    sim.world().view<const Name, T>().each([&](Entity, const Name& n, T& c) {
+        if (n.value == name) {
+            out = &c;
+        }
+    });
+    if (!out) {
+        throw std::runtime_error("no entity '" + name + "' with that component");
+    }
+    return *out;
+}
 
 /// A simulation of scenario text (throws ScenarioError like the CLI would).
 std::unique_ptr<Simulation> simulate(const std::string& text, const std::vector<std::string>& overrides = {});
