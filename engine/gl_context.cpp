@@ -5,6 +5,7 @@
 #include <GLES3/gl3.h>
 #include <stb/stb_image_write.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -129,13 +130,9 @@ void Framebuffer::read(std::vector<std::uint8_t>& rgba) const {
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glReadPixels(0, 0, m_width, m_height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
     // GL's rows run bottom-up; images run top-down
-    std::vector<std::uint8_t> swap(row);
     for (int y = 0; y < m_height / 2; ++y) {
         std::uint8_t* a = rgba.data() + std::size_t(y) * row;
-        std::uint8_t* b = rgba.data() + std::size_t(m_height - 1 - y) * row;
-        std::memcpy(swap.data(), a, row);
-        std::memcpy(a, b, row);
-        std::memcpy(b, swap.data(), row);
+        std::swap_ranges(a, a + row, rgba.data() + std::size_t(m_height - 1 - y) * row);
     }
 }
 

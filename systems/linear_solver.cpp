@@ -214,16 +214,16 @@ void AggregationMultigrid<S>::factorCoarsest() {
     // in-place lower Cholesky, in double whatever S is. The operator is SPD by construction; if round-off
     // says otherwise, the diagonal is shifted a little and the factorisation tried again (it only has to
     // be a good preconditioner, not exact)
-    const std::vector<double> dense = m_cholesky;
+    m_dense = m_cholesky; // kept for a retry; a copy into storage reused step after step
     double largest = 0.0;
     for (std::size_t j = 0; j < d; ++j) {
-        largest = std::max(largest, std::abs(dense[j * d + j]));
+        largest = std::max(largest, std::abs(m_dense[j * d + j]));
     }
     for (int attempt = 0; attempt < 8; ++attempt) {
         if (factorDense(d, attempt == 0 ? 0.0 : largest * 1e-7 * std::pow(10.0, attempt))) {
             return;
         }
-        m_cholesky = dense;
+        m_cholesky = m_dense;
     }
     throw std::runtime_error("implicit solver: the system matrix is not positive definite (a negative "
                              "stiffness, mass or damping?)");
