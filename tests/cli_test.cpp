@@ -204,6 +204,28 @@ TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
     }
 }
 
+TEST(Cli, ABlowUpIsSaidOnceTheRunGoesOnAndExitsOne) {
+    const std::string scene = writeTemp("boom.toml", R"(
+[scene]
+name = "boom"
+[[entity]]
+name = "bob"
+[entity.springs]
+integrator = "explicit_euler"
+masses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]
+links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]
+)");
+    const std::string dump = tempPath("boom.jsonl");
+    const auto r = runTumble(
+        {"run", scene, "--no-render", "--frames", "120", "--dump", dump, "--out", tempPath("boom")});
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    const auto first = r.err.find("entity 'bob' blew up at frame");
+    ASSERT_NE(first, std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("entity 'bob' blew up", first + 1), std::string::npos) << "said once";
+    EXPECT_EQ(jsonLines(readFile(dump)).at(0)["frame"], 120)
+        << "the run went on to its end and wrote its outputs";
+}
+
 TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
     const std::string dump = tempPath("term.jsonl"), profile = tempPath("term.json");
     const pid_t pid = ::fork();
