@@ -59,9 +59,11 @@ test)
     ;;
 asan)
     build build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTUMBLE_SANITIZE=ON -DTUMBLE_BENCH=OFF
-    # llvmpipe rasterises on one thread here: its worker threads, still parked when a process exits, can
-    # make LeakSanitizer's stop-the-world fail now and then (a fatal error, not a leak)
-    LP_NUM_THREADS=0 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    # Mesa's threads still alive when a process exits (llvmpipe's rasteriser workers, the shader disk
+    # cache's writer) can make LeakSanitizer's stop-the-world tracer crash now and then: a fatal error, not
+    # a leak (CI saw it once with a cold cache). Here llvmpipe rasterises on the main thread and the cache
+    # is off, so every process ends with a single thread.
+    LP_NUM_THREADS=0 MESA_SHADER_CACHE_DISABLE=true ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs"
     ;;
 *)
