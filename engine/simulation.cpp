@@ -57,7 +57,9 @@ void Simulation::runFrame() {
         ++m_step;
     }
     ctx.time = time();
-    ctx.alpha = tick.alpha;
+    // a headless frame ends exactly on a step (no leftover time), so it is drawn as that step left it:
+    // alpha 1. A loop paced by a clock draws one step behind, at leftover / step between the last two.
+    ctx.alpha = 1.0;
     m_schedule.run(Phase::Frame, m_world, ctx);
     m_profiler.endFrame();
     ++m_frame;

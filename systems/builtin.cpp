@@ -9,13 +9,12 @@
 namespace tumble {
 
 void registerBuiltinSystems(Catalog& catalog) {
-    // the fixed phase runs in this order
+    // the fixed phase runs in this order; the renderer's first, to keep the positions before the step
+    registerRenderSystem(catalog);
     registerForceFieldSystem(catalog);
     registerParticleSystem(catalog);
     registerSpringSystem(catalog);
     registerCollisionSystem(catalog);
-    // the frame phase
-    registerRenderSystem(catalog);
 }
 
 } // namespace tumble

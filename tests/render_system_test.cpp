@@ -3,7 +3,10 @@
 // when no EGL display can be had.
 
 #include "engine/gl_context.h"
+#include "components/particles.h"
+#include "components/spring_network.h"
 #include "engine/render_output.h"
+#include "engine/simulation.h"
 #include "systems/render_system.h"
 #include "tests/test_support.h"
 
@@ -137,6 +140,95 @@ size = [0.05, 0.05]
     }
     EXPECT_GT(green, 5000u);
     EXPECT_LT(other, green / 50);
+}
+
+/// Mean column of the pixels that are not background, in pixel units (pixel centres at +0.5).
+double centroidX(const Image& img) {
+    double sumX = 0.0, count = 0.0;
+    for (int y = 0; y < img.height; ++y) {
+        for (int x = 0; x < img.width; ++x) {
+            if (!isBackground(img.at(x, y))) {
+                sumX += x + 0.5;
+                count += 1.0;
+            }
+        }
+    }
+    EXPECT_GT(count, 100.0);
+    return sumX / count;
+}
+
+/// Where a point of the plane z = 0 lands across the image of kCamera (640 wide, 45 degrees, 5 m away).
+double projectedX(double x) {
+    const double f = 480.0 / (2.0 * std::tan(45.0 * std::numbers::pi / 360.0));
+    return 320.0 + f * x / 5.0;
+}
+
+/// Draws the frame again at `alpha` between the last two fixed steps, and reads it back.
+Image redrawAt(Simulation& sim, double alpha) {
+    StepContext ctx;
+    ctx.dt = sim.scene().dt;
+    ctx.alpha = alpha;
+    renderWorld(sim.world(), ctx);
+    Image img;
+    EXPECT_TRUE(lastImage(sim.world(), img.width, img.height, img.rgba));
+    return img;
+}
+
+std::unique_ptr<Simulation> renderedSimulation(const std::string& text) {
+    auto sim = test::simulate(text);
+    RenderOutput& out = sim->world().setResource<RenderOutput>();
+    out.enabled = true;
+    out.directory = test::tempPath("render");
+    out.lastFrame = 0; // no PNG
+    return sim;
+}
+
+TEST(RenderSystem, AMassIsDrawnBetweenTheLastTwoStepsAtAlpha) {
+    // one free mass crossing the view at 60 m/s: 1 m per step of 1/60 s, from x = -1.5 to x = -0.5
+    auto sim = renderedSimulation(std::string(kCamera) + R"(
+[[entity]]
+name = "mass"
+[entity.springs]
+integrator = "symplectic_euler"
+thickness = 0.3
+masses = [ { x = [-1.5, 0.0, 0.0], m = 1.0, v = [60.0, 0.0, 0.0] } ]
+)");
+    sim->runFrame();
+    const SpringNetwork& net = test::component<SpringNetwork>(*sim, "mass");
+    ASSERT_NEAR(net.x[0].x, -0.5, 1e-9);
+    for (double alpha : {0.0, 0.25, 0.5, 1.0}) {
+        const double x = -1.5 + alpha * 1.0;
+        EXPECT_NEAR(centroidX(redrawAt(*sim, alpha)), projectedX(x), 1.5) << "alpha " << alpha;
+    }
+}
+
+TEST(RenderSystem, AParticleIsDrawnBetweenTheLastTwoStepsAtAlpha) {
+    auto sim = renderedSimulation(std::string(kCamera) + R"(
+[[entity]]
+name = "spark"
+[entity.transform]
+position = [-1.5, 0.0, 0.0]
+[entity.emitter]
+shape = "point"
+burst = 1
+direction = [1.0, 0.0, 0.0]
+spread_deg = 0.0
+speed = [60.0, 60.0]
+lifetime = [100.0, 100.0]
+collide = false
+color = [[0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 1.0, 1.0]]
+size = [0.6, 0.6]
+)");
+    sim->runFrame();
+    sim->runFrame();
+    const ParticlePool& pool = test::component<ParticleEmitter>(*sim, "spark").pool;
+    ASSERT_EQ(pool.count, 1u);
+    for (double alpha : {0.0, 0.5, 1.0}) {
+        const double x = pool.px[0] - (1.0 - alpha) * sim->scene().dt * pool.vx[0];
+        EXPECT_NEAR(centroidX(redrawAt(*sim, alpha)), projectedX(x), 1.5) << "alpha " << alpha;
+    }
+    // and that is where it was a step ago: it moved by 1 m a step
+    EXPECT_NEAR(pool.px[0], -1.5 + 2.0, 1e-4);
 }
 
 TEST(RenderSystem, PngWrittenAndReadBackIsIdentical) {
