@@ -2,7 +2,9 @@
 // The renderer: a frame-phase system that draws the world headlessly (engine/gl_context.h) and writes PNG
 // frames. It only reads components, so rendering never changes the simulation or its hash.
 // Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, SpringNetwork,
-// ParticleEmitter. Writes: RenderOutput (the files written). Phase: frame.
+// ParticleEmitter, RenderHistory. Writes: RenderOutput (the files written). Phase: frame; and, first in the
+// fixed phase while rendering, `render_history`, which keeps each spring network's positions before the
+// step (RenderHistory), so that a frame falling between two steps is drawn between them (StepContext::alpha).
 //
 // What it draws: static colliders as lit meshes (a plane as a gridded ground), cloth and soft bodies as
 // lit surfaces with per-vertex normals (cloth two-sided), other spring networks (springs, ropes) as lines
