@@ -46,6 +46,13 @@ struct EventAction {
     std::function<void(World&, Entity, const EventDef&)> apply; ///< run at the start of the event's step
 };
 
+/// Resolves an entity named by a key of a table (a joint's `a`, `b`): the entity, the null entity when the
+/// key is absent and not required, or a failure that names the key, the table and the nearest name.
+using EntityLookup = std::function<Entity(TableReader& reader, std::string_view key, bool required)>;
+
+/// Reads one [[joint]] table after every entity exists, and makes what it describes.
+using JointLoader = std::function<void(TableReader& reader, World& world, const EntityLookup& lookup)>;
+
 /// A system and the phase it runs in; systems of a phase run in registration order.
 struct SystemEntry {
     Phase phase;
@@ -59,6 +66,7 @@ public:
     void addComponent(ComponentLoader loader) { m_components.push_back(std::move(loader)); }
     void addState(StateCodec codec) { m_states.push_back(std::move(codec)); }
     void addEventAction(EventAction action) { m_actions.push_back(std::move(action)); }
+    void setJointLoader(JointLoader loader) { m_jointLoader = std::move(loader); }
     void addSystem(Phase phase, std::string name, SystemFn fn) {
         m_systems.push_back({phase, std::move(name), std::move(fn)});
     }
@@ -77,12 +85,14 @@ public:
     const std::vector<StateCodec>& states() const { return m_states; }
     const std::vector<EventAction>& actions() const { return m_actions; }
     const std::vector<SystemEntry>& systems() const { return m_systems; }
+    const JointLoader& jointLoader() const { return m_jointLoader; }
 
 private:
     std::vector<ComponentLoader> m_components;
     std::vector<StateCodec> m_states;
     std::vector<EventAction> m_actions;
     std::vector<SystemEntry> m_systems;
+    JointLoader m_jointLoader;
 };
 
 } // namespace tumble

@@ -1,5 +1,5 @@
 #pragma once
-// The small vector type components use. Plain doubles with no padding, so a component's bytes are its
+// The small vector and rotation types components use. Plain doubles with no padding, so a component's bytes are its
 // state (the state hash reads them directly) and a std::vector<Vec3> is a packed array.
 
 #include <cmath>
@@ -52,5 +52,34 @@ inline bool isFinite(const Vec3& a) {
 }
 
 static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must have no padding: its bytes are hashed");
+
+/// A rotation as a unit quaternion (x, y, z: the vector part; w: the scalar part), as the dump writes it.
+struct Quat {
+    double x = 0.0;
+    double y = 0.0;
+    double z = 0.0;
+    double w = 1.0;
+    friend constexpr bool operator==(const Quat&, const Quat&) = default;
+};
+
+/// v rotated by the unit quaternion q.
+constexpr Vec3 rotate(const Quat& q, const Vec3& v) {
+    // v + 2 u x (u x v + w v), with u the vector part
+    const Vec3 u{q.x, q.y, q.z};
+    const Vec3 t = cross(u, v) * 2.0;
+    return v + t * q.w + cross(u, t);
+}
+
+/// The inverse rotation of a unit quaternion.
+constexpr Quat conjugate(const Quat& q) {
+    return {-q.x, -q.y, -q.z, q.w};
+}
+
+/// The rotation about the z axis by `angle` radians (a 2D body's orientation).
+inline Quat aboutZ(double angle) {
+    return {0.0, 0.0, std::sin(0.5 * angle), std::cos(0.5 * angle)};
+}
+
+static_assert(sizeof(Quat) == 4 * sizeof(double), "Quat must have no padding: its bytes are hashed");
 
 } // namespace tumble

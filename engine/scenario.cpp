@@ -19,7 +19,7 @@ namespace {
 constexpr double kHuge = 1e9; // bound on coordinates, m
 constexpr std::string_view kSections[] = {"scene", "budget", "camera", "render"};
 // components of the scenario format (CONTRACT.md) that arrive with later work
-constexpr std::string_view kPlanned[] = {"rigid_body_2d", "water"};
+constexpr std::string_view kPlanned[] = {"water"};
 
 bool validName(std::string_view s) {
     if (s.empty() || s.size() > 64) {
@@ -166,6 +166,9 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
     scene.gravity = s.vector<3>("gravity", scene.gravity, -1e4, 1e4);
     scene.seed =
         static_cast<std::uint64_t>(s.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
+    scene.solverIterations = static_cast<int>(s.integer("solver_iterations", 10, 1, 1000));
+    scene.velocityIterations = static_cast<int>(s.integer("velocity_iterations", 8, 1, 1000));
+    scene.positionIterations = static_cast<int>(s.integer("position_iterations", 3, 1, 1000));
     s.finish();
 
     auto section = [&](const char* key) -> const toml::table* {
@@ -358,6 +361,47 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
                 cr.finish();
             }
         }
+    }
+}
+
+// ---- joints
+
+void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& catalog, World& world,
+                const std::map<std::string, Entity>& byName) {
+    const toml::node* node = root.get("joint");
+    if (!node) {
+        return;
+    }
+    if (!catalog.jointLoader()) {
+        ctx.fail(node, "[[joint]] connects rigid bodies, which this build does not have");
+    }
+    const toml::array* list = node->as_array();
+    if (!list || !list->is_array_of_tables()) {
+        ctx.fail(node, "'joint' must be an array of tables, written [[joint]]");
+    }
+    if (list->size() > Limits::kMaxArray) {
+        ctx.fail(node, "too many joints (at most " + std::to_string(Limits::kMaxArray) + ")");
+    }
+    const EntityLookup lookup = [&byName](TableReader& r, std::string_view key, bool required) {
+        if (!required && !r.has(key)) {
+            return kNullEntity;
+        }
+        const std::string name = r.requiredString(key);
+        const auto found = byName.find(name);
+        if (found == byName.end()) {
+            std::vector<std::string> names;
+            for (const auto& [n, e] : byName) {
+                names.push_back(n);
+            }
+            const std::string near = nearestName(name, names);
+            r.fail(key, "no entity named '" + name + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        }
+        return found->second;
+    };
+    for (const toml::node& item : *list) {
+        TableReader r(*item.as_table(), "[[joint]]", ctx);
+        catalog.jointLoader()(r, world, lookup);
+        r.finish();
     }
 }
 
@@ -556,11 +600,9 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
                                        : " (did you mean '" + near + "'?)"));
     }
     readSections(root, ctx, sc.scene);
-    if (const toml::node* joints = root.get("joint")) {
-        ctx.fail(joints, "[[joint]] connects rigid bodies, which are not implemented in this build yet");
-    }
     std::map<std::string, Entity> byName;
     readEntities(root, ctx, catalog, sc.scene, world, byName);
+    readJoints(root, ctx, catalog, world, byName);
     sc.events = readEvents(root, ctx, catalog, sc.scene, world, byName);
     return sc;
 }

@@ -13,7 +13,7 @@ jobs=$(nproc 2>/dev/null || echo 2)
 # the Debian packages the build and the tests need; one list, kept in step with README.md
 packages=(
     g++ cmake ninja-build pkg-config git
-    libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev
+    libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev libbullet-dev libbox2d-dev
     libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
     libegl-dev libgles-dev libegl-mesa0 ffmpeg
 )

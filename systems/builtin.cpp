@@ -4,6 +4,7 @@
 #include "systems/force_field_system.h"
 #include "systems/particle_system.h"
 #include "systems/render_system.h"
+#include "systems/rigid_system.h"
 #include "systems/spring_system.h"
 
 namespace tumble {
@@ -15,6 +16,7 @@ void registerBuiltinSystems(Catalog& catalog) {
     registerParticleSystem(catalog);
     registerSpringSystem(catalog);
     registerCollisionSystem(catalog);
+    registerRigidSystem(catalog);
 }
 
 } // namespace tumble

@@ -34,56 +34,63 @@ double boxDistance(const Vec3& d, const Vec3& h, Vec3& normal) {
     return q[axis];
 }
 
-void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
-    RigidBody b;
-    const std::string shape =
-        r.choice("shape", "box", {"plane", "box", "sphere", "capsule", "cylinder", "convex", "mesh"});
-    if (shape == "convex" || shape == "mesh") {
-        r.fail("shape", "shape '" + shape + "' needs the rigid-body bridge, which is not in this build yet");
+/// Closest point to p on the triangle abc (Ericson, Real-Time Collision Detection, 5.1.5).
+Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        return a;
     }
-    b.shape = shape == "plane"     ? ShapeKind::Plane
-              : shape == "box"     ? ShapeKind::Box
-              : shape == "sphere"  ? ShapeKind::Sphere
-              : shape == "capsule" ? ShapeKind::Capsule
-                                   : ShapeKind::Cylinder;
-    if (b.shape == ShapeKind::Plane) {
-        const auto n = r.vector<3>("normal", {0.0, 1.0, 0.0}, -kHuge, kHuge);
-        const Vec3 normal{n[0], n[1], n[2]};
-        if (length(normal) < 1e-12) {
-            r.fail("normal", "'normal' of a plane must not be zero");
-        }
-        b.normal = normal * (1.0 / length(normal));
+    const Vec3 bp = p - b;
+    const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) {
+        return b;
     }
-    if (b.shape == ShapeKind::Box) {
-        const auto h = r.vector<3>("half_extents", {0.5, 0.5, 0.5}, 1e-6, kHuge);
-        b.halfExtents = {h[0], h[1], h[2]};
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        return a + ab * (d1 / (d1 - d3));
     }
-    if (b.shape == ShapeKind::Sphere || b.shape == ShapeKind::Capsule || b.shape == ShapeKind::Cylinder) {
-        b.radius = r.number("radius", 0.5, 1e-6, kHuge);
+    const Vec3 cp = p - c;
+    const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) {
+        return c;
     }
-    if (b.shape == ShapeKind::Capsule || b.shape == ShapeKind::Cylinder) {
-        b.height = r.number("height", 1.0, 0.0, kHuge);
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        return a + ac * (d2 / (d2 - d6));
     }
-    b.mass = r.number("mass", 0.0, 0.0, 1e9);
-    if (b.mass > 0.0) {
-        r.fail("mass",
-               "dynamic rigid bodies (mass > 0) need the Bullet bridge, which is not in this build yet; "
-               "mass = 0 makes a static collider");
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
     }
-    b.friction = r.number("friction", 0.6, 0.0, 100.0);
-    b.restitution = r.number("restitution", 0.0, 0.0, 1.0);
-    const bool plane = b.shape == ShapeKind::Plane;
-    const auto color =
-        r.vector<3>("color", plane ? std::array{0.55, 0.57, 0.52} : std::array{0.62, 0.60, 0.56}, 0.0, 1.0);
-    b.color = {color[0], color[1], color[2]};
-    b.position = world.get<Transform>(entity).position;
-    world.emplace<RigidBody>(entity, b);
+    const double denom = 1.0 / (va + vb + vc);
+    return a + ab * (vb * denom) + ac * (vc * denom);
 }
+
+/// Distance from p to the box [lo, hi] (0 inside).
+double boundsDistance(const Vec3& p, const Vec3& lo, const Vec3& hi) {
+    const Vec3 out{std::max({lo.x - p.x, 0.0, p.x - hi.x}), std::max({lo.y - p.y, 0.0, p.y - hi.y}),
+                   std::max({lo.z - p.z, 0.0, p.z - hi.z})};
+    return length(out);
+}
+
+/// Beyond this distance from a mesh's bounds, the distance to the bounds stands in for the distance to the
+/// mesh (a lower bound, so no contact is missed by a network thinner than this).
+constexpr double kMeshNear = 1.0;
 
 } // namespace
 
 double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal) {
-    const Vec3 d = p - body.position;
+    if (body.shape == ShapeKind::Plane) {
+        normal = body.normal;
+        return dot(p - body.position, body.normal);
+    }
+    const double d = localSignedDistance(body, body.toLocal(p), normal);
+    normal = rotate(body.orientation, normal);
+    return d;
+}
+
+double localSignedDistance(const RigidBody& body, const Vec3& d, Vec3& normal) {
     switch (body.shape) {
     case ShapeKind::Plane:
         normal = body.normal;
@@ -120,12 +127,48 @@ double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal) {
         normal = side > end ? outward : upward;
         return std::max(side, end);
     }
+    case ShapeKind::Convex: {
+        // the farthest face plane: exact inside and in front of a face, a slight underestimate off an
+        // edge or a corner (the mesh is the hull's faces, as the rock generator writes them)
+        const ShapeMesh& m = *body.mesh;
+        double best = -1e300;
+        for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+            const double dist = dot(d - m.vertices[m.triangles[t][0]], m.faceNormals[t]);
+            if (dist > best) {
+                best = dist;
+                normal = m.faceNormals[t];
+            }
+        }
+        return best;
+    }
+    case ShapeKind::Mesh: {
+        // an open surface (a terrain): the distance to the nearest triangle, negative behind its face
+        const ShapeMesh& m = *body.mesh;
+        const double far = boundsDistance(d, m.lo, m.hi);
+        if (far > kMeshNear) {
+            normal = Vec3{0.0, 1.0, 0.0};
+            return far;
+        }
+        double best = 1e300, sign = 1.0;
+        for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+            const auto& tri = m.triangles[t];
+            const Vec3 c = closestOnTriangle(d, m.vertices[tri[0]], m.vertices[tri[1]], m.vertices[tri[2]]);
+            const Vec3 e = d - c;
+            const double len = length(e);
+            if (len < best) {
+                best = len;
+                sign = dot(e, m.faceNormals[t]) < 0.0 ? -1.0 : 1.0;
+                normal = len > 1e-9 ? e * (sign / len) : m.faceNormals[t];
+            }
+        }
+        return sign * best;
+    }
     }
     return 1e300;
 }
 
 void collideSprings(World& world, const StepContext&) {
-    const Pool<RigidBody>* bodies = world.findPool<RigidBody>();
+    Pool<RigidBody>* bodies = world.findPool<RigidBody>();
     if (!bodies || bodies->size() == 0) {
         return;
     }
@@ -140,26 +183,36 @@ void collideSprings(World& world, const StepContext&) {
             // a few passes, so that a mass wedged between two bodies ends up outside both
             for (int pass = 0; pass < kContactPasses; ++pass) {
                 bool moved = false;
-                for (const RigidBody& body : bodies->values()) {
+                for (RigidBody& body : bodies->values()) {
                     Vec3 n;
-                    const double d = body.mass > 0.0 ? 1e300 : signedDistance(body, net.x[i], n);
+                    const double d = signedDistance(body, net.x[i], n);
                     if (d >= net.thickness) {
                         continue;
                     }
                     moved = true;
                     net.x[i] += n * (net.thickness - d);
-                    const double vn = dot(net.v[i], n);
+                    // the response acts on the velocity relative to the body's surface there
+                    const Vec3 surface = body.dynamic() ? body.velocityAt(net.x[i]) : Vec3{};
+                    const Vec3 relative = net.v[i] - surface;
+                    const double vn = dot(relative, n);
                     if (vn >= 0.0) {
                         continue; // already leaving the surface
                     }
                     // the velocity into the surface stops (or bounces by restitution); sliding loses to
                     // friction
                     const double mu = std::sqrt(body.friction * net.friction); // combined as Bullet does
-                    Vec3 vt = net.v[i] - n * vn;
+                    Vec3 vt = relative - n * vn;
                     const double speed = length(vt);
                     const double slowdown = mu * -vn;
                     vt = speed <= slowdown ? Vec3{} : vt * (1.0 - slowdown / speed);
-                    net.v[i] = vt - n * (vn * body.restitution);
+                    const Vec3 after = surface + vt - n * (vn * body.restitution);
+                    if (body.dynamic()) {
+                        // the body takes the momentum the mass lost: J on the body = -m dv of the mass
+                        const Vec3 j = (net.v[i] - after) * (1.0 / net.invMass[i]);
+                        body.impulse += j;
+                        body.angularImpulse += cross(net.x[i] - body.position, j);
+                    }
+                    net.v[i] = after;
                 }
                 if (!moved) {
                     break;
@@ -188,23 +241,26 @@ void collideParticles(World& world, const StepContext&) {
                 bool moved = false;
                 for (const RigidBody& body : bodies->values()) {
                     Vec3 n;
-                    const double d = body.mass > 0.0 ? 1.0 : signedDistance(body, x, n);
+                    const double d = signedDistance(body, x, n);
                     if (d >= 0.0) {
                         continue;
                     }
                     moved = touched = true;
                     x -= n * d;
-                    // the normal speed reversed by restitution, the sliding slowed by friction
-                    const double vn = dot(v, n);
+                    // the normal speed relative to the surface reversed by restitution, the sliding slowed
+                    // by friction; particles carry no mass, so the body feels nothing
+                    const Vec3 surface = body.dynamic() ? body.velocityAt(x) : Vec3{};
+                    const Vec3 relative = v - surface;
+                    const double vn = dot(relative, n);
                     if (vn < 0.0) {
                         const double mu = std::sqrt(body.friction * e.def.friction);
                         const double bounce =
                             std::max(body.restitution, e.def.restitution); // as Box2D mixes it
-                        Vec3 vt = v - n * vn;
+                        Vec3 vt = relative - n * vn;
                         const double speed = length(vt);
                         const double slowdown = mu * -vn * (1.0 + bounce);
                         vt = speed <= slowdown ? Vec3{} : vt * (1.0 - slowdown / speed);
-                        v = vt - n * (vn * bounce);
+                        v = surface + vt - n * (vn * bounce);
                     }
                 }
                 if (!moved) {
@@ -222,7 +278,7 @@ void collideParticles(World& world, const StepContext&) {
                 for (const RigidBody& body : bodies->values()) {
                     Vec3 n;
                     const Vec3 stored{float(x.x), float(x.y), float(x.z)};
-                    if (body.mass == 0.0 && signedDistance(body, stored, n) < 0.0) {
+                    if (signedDistance(body, stored, n) < 0.0) {
                         x += n * (resolution * double(2 << k));
                         inside = true;
                     }
@@ -242,7 +298,6 @@ void collideParticles(World& world, const StepContext&) {
 }
 
 void registerCollisionSystem(Catalog& catalog) {
-    catalog.addComponent({"rigid_body", loadRigidBody});
     catalog.addSystem(Phase::Fixed, "collisions", [](World& world, const StepContext& ctx) {
         collideSprings(world, ctx);
         collideParticles(world, ctx);

@@ -3,6 +3,8 @@
 #include "components/particles.h"
 #include "components/render_history.h"
 #include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
+#include "components/transform.h"
 #include "components/spring_network.h"
 #include "engine/gl_context.h"
 #include "engine/render_output.h"
@@ -14,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <sstream>
@@ -205,6 +208,7 @@ struct Renderer {
     std::vector<Vec3> positions;             ///< scratch: a network's masses between two steps
     std::vector<FlatVertex> flat;            ///< scratch: line vertices or particle instances
     std::vector<std::uint8_t> pixels;        ///< the last image read back
+    std::map<const ShapeMesh*, Mesh> shapeMeshes; ///< convex hulls and meshes, uploaded once
     bool drawn = false;
 };
 
@@ -299,6 +303,48 @@ const std::vector<Vec3>& drawnPositions(const World& world, Entity e, const Spri
     return scratch;
 }
 
+/// A mesh for a convex hull or a static mesh, flat-shaded: uploaded once per mesh and kept.
+const Mesh& shapeMesh(Renderer& r, const ShapeMesh& m) {
+    auto found = r.shapeMeshes.find(&m);
+    if (found != r.shapeMeshes.end()) {
+        return found->second;
+    }
+    std::vector<float> triangles;
+    for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+        for (std::uint32_t i : m.triangles[t]) {
+            pushVertex(triangles, m.vertices[i], m.faceNormals[t]);
+        }
+    }
+    return r.shapeMeshes.emplace(&m, upload(triangles)).first->second;
+}
+
+/// A 2D polygon extruded along z (half depth 1), flat-shaded; made for each draw (2D polygons are few).
+std::vector<float> prismMesh(const std::vector<Vec2>& v) {
+    std::vector<float> out;
+    const std::size_t n = v.size();
+    for (double z : {-1.0, 1.0}) {
+        for (std::size_t k = 1; k + 1 < n; ++k) {
+            for (std::size_t i : {std::size_t(0), k, k + 1}) {
+                pushVertex(out, {v[i][0], v[i][1], z}, {0.0, 0.0, z});
+            }
+        }
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec2& a = v[i];
+        const Vec2& b = v[(i + 1) % n];
+        Vec3 normal{b[1] - a[1], a[0] - b[0], 0.0};
+        normal = normal * (1.0 / length(normal));
+        const Vec3 p[4] = {{a[0], a[1], -1.0}, {b[0], b[1], -1.0}, {b[0], b[1], 1.0}, {a[0], a[1], 1.0}};
+        for (int k : {0, 1, 2, 0, 2, 3}) {
+            pushVertex(out, p[k], normal);
+        }
+    }
+    return out;
+}
+
+/// Depth of a 2D body as drawn: a slab about the plane z = its entity's z.
+constexpr double kSlabHalfDepth = 0.25;
+
 void drawColliders(World& world, Renderer& r) {
     const GLint modelLoc = glGetUniformLocation(r.meshProgram, "uModel");
     const GLint colourLoc = glGetUniformLocation(r.meshProgram, "uColor");
@@ -312,31 +358,67 @@ void drawColliders(World& world, Renderer& r) {
     };
     world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
         const std::array<float, 4> stone{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
-        const std::array<float, 4>& ground = stone;
+        // the body's frame: its axes in world space
+        const Vec3 ax = rotate(b.orientation, {1, 0, 0}), ay = rotate(b.orientation, {0, 1, 0}),
+                   az = rotate(b.orientation, {0, 0, 1});
+        auto placed = [&](const Vec3& at, const Vec3& scale) { return model(at, scale, ax, ay, az); };
         switch (b.shape) {
         case ShapeKind::Plane: {
             const Vec3 n = b.normal;
             Vec3 t = std::abs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 0, 1});
             t = t * (1.0 / length(t));
             const Vec3 s = cross(t, n);
-            draw(r.plane, model(b.position, {200, 1, 200}, s, n, t), ground, true);
+            draw(r.plane, model(b.position, {200, 1, 200}, s, n, t), stone, true);
             break;
         }
         case ShapeKind::Sphere:
-            draw(r.sphere, model(b.position, {b.radius, b.radius, b.radius}), stone, false);
+            draw(r.sphere, placed(b.position, {b.radius, b.radius, b.radius}), stone, false);
             break;
         case ShapeKind::Box:
-            draw(r.cube, model(b.position, b.halfExtents), stone, false);
+            draw(r.cube, placed(b.position, b.halfExtents), stone, false);
             break;
         case ShapeKind::Cylinder:
-            draw(r.cylinder, model(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
+            draw(r.cylinder, placed(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
             break;
-        case ShapeKind::Capsule: {
-            draw(r.cylinder, model(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
+        case ShapeKind::Capsule:
+            draw(r.cylinder, placed(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
             for (double s : {-0.5, 0.5}) {
-                draw(r.sphere, model(b.position + Vec3{0, s * b.height, 0}, {b.radius, b.radius, b.radius}),
-                     stone, false);
+                draw(r.sphere, placed(b.toWorld({0, s * b.height, 0}), {b.radius, b.radius, b.radius}), stone,
+                     false);
             }
+            break;
+        case ShapeKind::Convex:
+        case ShapeKind::Mesh:
+            draw(shapeMesh(r, *b.mesh), placed(b.position, {1, 1, 1}), stone, false);
+            break;
+        }
+    });
+    world.view<const RigidBody2D, const Transform>().each([&](Entity, const RigidBody2D& b, const Transform& t) {
+        const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
+        const Quat q = aboutZ(b.angle);
+        const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
+        const Vec3 at{b.position[0], b.position[1], t.position.z};
+        switch (b.shape) {
+        case Shape2DKind::Box:
+            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour, false);
+            break;
+        case Shape2DKind::Circle:
+            // the unit cylinder stands along y: lay it along z
+            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour, false);
+            break;
+        case Shape2DKind::Polygon: {
+            const Mesh prism = upload(prismMesh(b.vertices));
+            draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour, false);
+            glDeleteBuffers(1, &prism.vbo);
+            glDeleteVertexArrays(1, &prism.vao);
+            break;
+        }
+        case Shape2DKind::Edge: {
+            const Vec3 from = at + ax * b.from[0] + ay * b.from[1], to = at + ax * b.to[0] + ay * b.to[1];
+            const Vec3 along = to - from;
+            const double len = length(along);
+            const Vec3 ex = along * (1.0 / len), ey = cross({0, 0, 1}, ex);
+            draw(r.cube, model((from + to) * 0.5, {0.5 * len, 0.02, kSlabHalfDepth}, ex, ey), colour, false);
             break;
         }
         }

@@ -1,0 +1,49 @@
+#pragma once
+// A rigid body of the 2D engine (Box2D), in the scene's xy plane: its shape and material, a copy of its
+// pose and velocities written back after every step, the engine's id, and the pushes that wait for the
+// next step. See components/rigid_body.h for the 3D twin.
+
+#include "engine/math.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace tumble {
+
+/// 2D collision shapes (CONTRACT.md `shape` of rigid_body_2d).
+enum class Shape2DKind : std::uint8_t { Box, Circle, Polygon, Edge };
+
+using Vec2 = std::array<double, 2>;
+
+/// Shape, material, pose and velocities of a 2D rigid body.
+struct RigidBody2D {
+    Shape2DKind shape = Shape2DKind::Box;
+    Vec2 halfExtents{0.5, 0.5};  ///< box: m
+    double radius = 0.5;         ///< circle: m
+    std::vector<Vec2> vertices;  ///< polygon: m, body frame, convex, counter-clockwise
+    Vec2 from{-1.0, 0.0};        ///< edge: m, body frame
+    Vec2 to{1.0, 0.0};           ///< edge: m, body frame
+    double mass = 0.0;           ///< kg; 0 = static
+    double friction = 0.6;
+    double restitution = 0.0;
+    bool canSleep = true;
+    Vec3 color{0.62, 0.60, 0.56}; ///< RGB in [0, 1], for the renderer only
+
+    // state, as the bridge last left it
+    Vec2 position{0.0, 0.0};  ///< m
+    double angle = 0.0;       ///< rad, counter-clockwise about z
+    Vec2 velocity{0.0, 0.0};  ///< m/s
+    double angularVelocity = 0.0; ///< rad/s
+    bool sleeping = false;
+
+    // bridge
+    std::int32_t bodyId = -1;
+    Vec2 impulse{0.0, 0.0};      ///< N s at the centre, applied and cleared at the next step
+    double angularImpulse = 0.0; ///< N m s, likewise
+    bool teleported = false;
+
+    bool dynamic() const { return mass > 0.0; }
+};
+
+} // namespace tumble

@@ -1,0 +1,298 @@
+#include "systems/box2d_bridge.h"
+
+#include "components/joint.h"
+#include "components/rigid_body_2d.h"
+#include "components/transform.h"
+
+#include <box2d/box2d.h>
+
+#include <numbers>
+#include <vector>
+
+namespace tumble {
+
+namespace {
+
+b2Vec2 b2(const Vec2& v) {
+    return {float(v[0]), float(v[1])};
+}
+b2Vec2 b2xy(const Vec3& v) {
+    return {float(v.x), float(v.y)};
+}
+
+struct BodySlot {
+    Entity entity;
+    b2Body* body = nullptr;
+};
+
+struct JointSlot {
+    Entity joint;
+    b2Joint* joint2d = nullptr;
+};
+
+} // namespace
+
+struct Box2DWorld::Impl {
+    b2World world;
+    b2Body* ground = nullptr; ///< static, at the origin: what joints to the world hold on to
+    std::vector<BodySlot> bodies;
+    std::vector<std::int32_t> freeBodies;
+    std::vector<JointSlot> joints;
+    std::vector<std::int32_t> freeJoints;
+    int velocityIterations = 8, positionIterations = 3;
+
+    explicit Impl(const SceneDef& scene) : world(b2Vec2(float(scene.gravity[0]), float(scene.gravity[1]))) {
+        b2BodyDef def;
+        ground = world.CreateBody(&def);
+        velocityIterations = scene.velocityIterations;
+        positionIterations = scene.positionIterations;
+    }
+    b2Body* body(std::int32_t id) { return bodies[std::size_t(id)].body; }
+};
+
+Box2DWorld::Box2DWorld(const SceneDef& scene) : m_impl(std::make_unique<Impl>(scene)) {}
+Box2DWorld::~Box2DWorld() = default;
+
+std::size_t Box2DWorld::bodyCount() const {
+    return std::size_t(m_impl->world.GetBodyCount()) - 1;
+}
+
+std::size_t Box2DWorld::jointCount() const {
+    return std::size_t(m_impl->world.GetJointCount());
+}
+
+double shapeArea2D(const RigidBody2D& b) {
+    switch (b.shape) {
+    case Shape2DKind::Box:
+        return 4.0 * b.halfExtents[0] * b.halfExtents[1];
+    case Shape2DKind::Circle:
+        return std::numbers::pi * b.radius * b.radius;
+    case Shape2DKind::Polygon: {
+        double twice = 0.0;
+        for (std::size_t i = 0; i < b.vertices.size(); ++i) {
+            const Vec2& p = b.vertices[i];
+            const Vec2& q = b.vertices[(i + 1) % b.vertices.size()];
+            twice += p[0] * q[1] - q[0] * p[1];
+        }
+        return 0.5 * twice;
+    }
+    case Shape2DKind::Edge:
+        return 0.0;
+    }
+    return 0.0;
+}
+
+namespace {
+
+template <class Slot>
+std::int32_t take(std::vector<Slot>& slots, std::vector<std::int32_t>& free, Slot slot) {
+    if (!free.empty()) {
+        const std::int32_t id = free.back();
+        free.pop_back();
+        slots[std::size_t(id)] = slot;
+        return id;
+    }
+    slots.push_back(slot);
+    return std::int32_t(slots.size() - 1);
+}
+
+std::int32_t addBody(Box2DWorld::Impl& impl, Entity e, const RigidBody2D& rb) {
+    b2BodyDef def;
+    def.type = rb.dynamic() ? b2_dynamicBody : b2_staticBody;
+    def.position = b2(rb.position);
+    def.angle = float(rb.angle);
+    def.linearVelocity = b2(rb.velocity);
+    def.angularVelocity = float(rb.angularVelocity);
+    def.allowSleep = rb.canSleep;
+    b2Body* body = impl.world.CreateBody(&def);
+    b2FixtureDef fixture;
+    fixture.friction = float(rb.friction);
+    fixture.restitution = float(rb.restitution);
+    const double area = shapeArea2D(rb);
+    fixture.density = rb.dynamic() && area > 0.0 ? float(rb.mass / area) : 0.0f;
+    b2PolygonShape polygon;
+    b2CircleShape circle;
+    b2EdgeShape edge;
+    switch (rb.shape) {
+    case Shape2DKind::Box:
+        polygon.SetAsBox(float(rb.halfExtents[0]), float(rb.halfExtents[1]));
+        fixture.shape = &polygon;
+        break;
+    case Shape2DKind::Circle:
+        circle.m_radius = float(rb.radius);
+        fixture.shape = &circle;
+        break;
+    case Shape2DKind::Polygon: {
+        b2Vec2 points[b2_maxPolygonVertices];
+        for (std::size_t i = 0; i < rb.vertices.size(); ++i) {
+            points[i] = b2(rb.vertices[i]);
+        }
+        polygon.Set(points, int32(rb.vertices.size()));
+        fixture.shape = &polygon;
+        break;
+    }
+    case Shape2DKind::Edge:
+        edge.SetTwoSided(b2(rb.from), b2(rb.to));
+        fixture.shape = &edge;
+        break;
+    }
+    body->CreateFixture(&fixture);
+    return take(impl.bodies, impl.freeBodies, BodySlot{e, body});
+}
+
+b2Joint* makeJoint(Box2DWorld::Impl& impl, const Joint& j, b2Body* a, b2Body* b) {
+    switch (j.kind) {
+    case JointKind::Hinge:
+    case JointKind::Point: {
+        // in the plane a hinge (about z) and a point joint are the same revolute joint
+        b2RevoluteJointDef def;
+        def.Initialize(a, b, b2xy(j.pivot));
+        def.enableLimit = j.limited;
+        def.lowerAngle = float(j.lower);
+        def.upperAngle = float(j.upper);
+        return impl.world.CreateJoint(&def);
+    }
+    case JointKind::Fixed: {
+        b2WeldJointDef def;
+        def.Initialize(a, b, b2xy(j.pivot));
+        return impl.world.CreateJoint(&def);
+    }
+    case JointKind::Slider: {
+        b2PrismaticJointDef def;
+        b2Vec2 axis = b2xy(j.axis);
+        axis.Normalize();
+        def.Initialize(a, b, b2xy(j.pivot), axis);
+        def.enableLimit = j.limited;
+        def.lowerTranslation = float(j.lower);
+        def.upperTranslation = float(j.upper);
+        return impl.world.CreateJoint(&def);
+    }
+    case JointKind::Spring: {
+        b2DistanceJointDef def;
+        def.Initialize(a, b, b2xy(j.pivot), b2xy(j.pivotB));
+        def.length = float(j.rest);
+        def.minLength = 0.0f;
+        def.maxLength = b2_maxFloat;
+        def.stiffness = float(j.stiffness);
+        def.damping = float(j.damping);
+        return impl.world.CreateJoint(&def);
+    }
+    }
+    return nullptr;
+}
+
+RigidBody2D* jointBody(World& world, Entity e) {
+    if (e == kNullEntity || !world.alive(e)) {
+        return nullptr;
+    }
+    RigidBody2D* b = world.tryGet<RigidBody2D>(e);
+    return b && b->bodyId >= 0 ? b : nullptr;
+}
+
+} // namespace
+
+void box2dSyncIn(World& world, const StepContext&) {
+    Box2DWorld* bw = world.tryResource<Box2DWorld>();
+    if (!bw) {
+        const Pool<RigidBody2D>* pool = world.findPool<RigidBody2D>();
+        if (!pool || pool->size() == 0) {
+            return;
+        }
+        bw = &world.setResource<Box2DWorld>(world.resource<SceneDef>());
+    }
+    Box2DWorld::Impl& impl = bw->impl();
+
+    // joints whose joint entity or bodies are gone go first (Box2D would destroy them with a body, but the
+    // slot must go too), then bodies whose entities are gone
+    for (std::size_t i = 0; i < impl.joints.size(); ++i) {
+        const Entity je = impl.joints[i].joint;
+        if (je == kNullEntity) {
+            continue;
+        }
+        const Joint* j = world.alive(je) ? world.tryGet<Joint>(je) : nullptr;
+        if (!j || j->constraintId != std::int32_t(i) || !jointBody(world, j->a) ||
+            (j->b != kNullEntity && !jointBody(world, j->b))) {
+            impl.world.DestroyJoint(impl.joints[i].joint2d);
+            impl.joints[i] = JointSlot{};
+            impl.freeJoints.push_back(std::int32_t(i));
+        }
+    }
+    for (std::size_t i = 0; i < impl.bodies.size(); ++i) {
+        const Entity e = impl.bodies[i].entity;
+        if (e == kNullEntity) {
+            continue;
+        }
+        const RigidBody2D* b = world.alive(e) ? world.tryGet<RigidBody2D>(e) : nullptr;
+        if (!b || b->bodyId != std::int32_t(i)) {
+            impl.world.DestroyBody(impl.bodies[i].body);
+            impl.bodies[i] = BodySlot{};
+            impl.freeBodies.push_back(std::int32_t(i));
+        }
+    }
+
+    world.view<RigidBody2D>().each([&](Entity e, RigidBody2D& b) {
+        if (b.bodyId < 0) {
+            b.bodyId = addBody(impl, e, b);
+            b.teleported = false;
+        }
+        b2Body& body = *impl.body(b.bodyId);
+        if (!b.dynamic()) {
+            return;
+        }
+        if (b.teleported) {
+            body.SetTransform(b2(b.position), float(b.angle));
+            body.SetLinearVelocity(b2(b.velocity));
+            body.SetAngularVelocity(float(b.angularVelocity));
+            body.SetAwake(true);
+            b.teleported = false;
+        }
+        if (b.impulse != Vec2{0.0, 0.0} || b.angularImpulse != 0.0) {
+            body.ApplyLinearImpulseToCenter(b2(b.impulse), true);
+            body.ApplyAngularImpulse(float(b.angularImpulse), true);
+            b.impulse = {0.0, 0.0};
+            b.angularImpulse = 0.0;
+        }
+    });
+
+    world.view<Joint>().each([&](Entity e, Joint& j) {
+        if (!j.twoD || j.constraintId >= 0) {
+            return;
+        }
+        RigidBody2D* a = jointBody(world, j.a);
+        RigidBody2D* b = j.b == kNullEntity ? nullptr : jointBody(world, j.b);
+        if (!a || (j.b != kNullEntity && !b)) {
+            return;
+        }
+        b2Joint* joint = makeJoint(impl, j, impl.body(a->bodyId), b ? impl.body(b->bodyId) : impl.ground);
+        j.constraintId = take(impl.joints, impl.freeJoints, JointSlot{e, joint});
+    });
+}
+
+void box2dStep(World& world, const StepContext& ctx) {
+    if (Box2DWorld* bw = world.tryResource<Box2DWorld>()) {
+        Box2DWorld::Impl& impl = bw->impl();
+        impl.world.Step(float(ctx.dt), impl.velocityIterations, impl.positionIterations);
+    }
+}
+
+void box2dSyncOut(World& world, const StepContext&) {
+    Box2DWorld* bw = world.tryResource<Box2DWorld>();
+    if (!bw) {
+        return;
+    }
+    Box2DWorld::Impl& impl = bw->impl();
+    world.view<RigidBody2D, Transform>().each([&](Entity, RigidBody2D& b, Transform& t) {
+        if (b.bodyId < 0 || !b.dynamic()) {
+            return;
+        }
+        const b2Body& body = *impl.body(b.bodyId);
+        b.position = {double(body.GetPosition().x), double(body.GetPosition().y)};
+        b.angle = double(body.GetAngle());
+        b.velocity = {double(body.GetLinearVelocity().x), double(body.GetLinearVelocity().y)};
+        b.angularVelocity = double(body.GetAngularVelocity());
+        b.sleeping = !body.IsAwake();
+        t.position = {b.position[0], b.position[1], t.position.z};
+    });
+}
+
+} // namespace tumble

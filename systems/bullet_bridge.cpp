@@ -1,0 +1,387 @@
+#include "systems/bullet_bridge.h"
+
+#include "components/joint.h"
+#include "components/rigid_body.h"
+#include "components/transform.h"
+
+#include <btBulletDynamicsCommon.h>
+
+#include <vector>
+
+namespace tumble {
+
+namespace {
+
+btVector3 bt(const Vec3& v) {
+    return {btScalar(v.x), btScalar(v.y), btScalar(v.z)};
+}
+Vec3 fromBt(const btVector3& v) {
+    return {double(v.x()), double(v.y()), double(v.z())};
+}
+btQuaternion bt(const Quat& q) {
+    return {btScalar(q.x), btScalar(q.y), btScalar(q.z), btScalar(q.w)};
+}
+Quat fromBt(const btQuaternion& q) {
+    return {double(q.x()), double(q.y()), double(q.z()), double(q.w())};
+}
+
+struct BodySlot {
+    Entity entity;
+    std::unique_ptr<btTriangleMesh> triangles; ///< a static mesh's triangles (the shape points into them)
+    std::unique_ptr<btCollisionShape> shape;
+    std::unique_ptr<btRigidBody> body;
+};
+
+struct ConstraintSlot {
+    Entity joint;
+    std::unique_ptr<btTypedConstraint> constraint; ///< none for a spring: its force is applied each step
+};
+
+} // namespace
+
+struct BulletWorld::Impl {
+    // declared in the order they must be built (and the reverse of the order they must go)
+    btDefaultCollisionConfiguration config;
+    btCollisionDispatcher dispatcher{&config};
+    btDbvtBroadphase broadphase;
+    btSequentialImpulseConstraintSolver solver;
+    btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+    std::vector<BodySlot> bodies;
+    std::vector<std::int32_t> freeBodies;
+    std::vector<ConstraintSlot> constraints;
+    std::vector<std::int32_t> freeConstraints;
+
+    ~Impl() {
+        for (ConstraintSlot& c : constraints) {
+            if (c.constraint) {
+                world.removeConstraint(c.constraint.get());
+            }
+        }
+        for (BodySlot& b : bodies) {
+            if (b.body) {
+                world.removeRigidBody(b.body.get());
+            }
+        }
+    }
+
+    btRigidBody* body(std::int32_t id) { return id >= 0 ? bodies[std::size_t(id)].body.get() : nullptr; }
+
+    std::int32_t addBody(Entity e, const RigidBody& rb);
+    void removeBody(std::int32_t id);
+    std::int32_t addConstraint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b);
+    void removeConstraint(std::int32_t id);
+};
+
+BulletWorld::BulletWorld(const SceneDef& scene) : m_impl(std::make_unique<Impl>()) {
+    m_impl->world.setGravity(btVector3(btScalar(scene.gravity[0]), btScalar(scene.gravity[1]),
+                                       btScalar(scene.gravity[2])));
+    m_impl->world.getSolverInfo().m_numIterations = scene.solverIterations;
+}
+
+BulletWorld::~BulletWorld() = default;
+
+std::size_t BulletWorld::bodyCount() const {
+    return std::size_t(m_impl->world.getNumCollisionObjects());
+}
+
+std::size_t BulletWorld::constraintCount() const {
+    return std::size_t(m_impl->world.getNumConstraints());
+}
+
+std::int32_t BulletWorld::Impl::addBody(Entity e, const RigidBody& rb) {
+    BodySlot slot;
+    slot.entity = e;
+    switch (rb.shape) {
+    case ShapeKind::Plane:
+        slot.shape = std::make_unique<btStaticPlaneShape>(bt(rb.normal), btScalar(0));
+        break;
+    case ShapeKind::Box:
+        slot.shape = std::make_unique<btBoxShape>(bt(rb.halfExtents));
+        break;
+    case ShapeKind::Sphere:
+        slot.shape = std::make_unique<btSphereShape>(btScalar(rb.radius));
+        break;
+    case ShapeKind::Capsule:
+        slot.shape = std::make_unique<btCapsuleShape>(btScalar(rb.radius), btScalar(rb.height));
+        break;
+    case ShapeKind::Cylinder:
+        slot.shape = std::make_unique<btCylinderShape>(bt(Vec3{rb.radius, 0.5 * rb.height, rb.radius}));
+        break;
+    case ShapeKind::Convex: {
+        auto hull = std::make_unique<btConvexHullShape>();
+        for (const Vec3& p : rb.mesh->vertices) {
+            hull->addPoint(bt(p), false);
+        }
+        hull->recalcLocalAabb();
+        hull->optimizeConvexHull();
+        hull->initializePolyhedralFeatures();
+        slot.shape = std::move(hull);
+        break;
+    }
+    case ShapeKind::Mesh: {
+        slot.triangles = std::make_unique<btTriangleMesh>();
+        const auto& v = rb.mesh->vertices;
+        for (const auto& t : rb.mesh->triangles) {
+            slot.triangles->addTriangle(bt(v[t[0]]), bt(v[t[1]]), bt(v[t[2]]), true);
+        }
+        slot.shape = std::make_unique<btBvhTriangleMeshShape>(slot.triangles.get(), true);
+        break;
+    }
+    }
+    btVector3 inertia(0, 0, 0);
+    if (rb.dynamic()) {
+        slot.shape->calculateLocalInertia(btScalar(rb.mass), inertia);
+    }
+    btRigidBody::btRigidBodyConstructionInfo info(btScalar(rb.mass), nullptr, slot.shape.get(), inertia);
+    info.m_startWorldTransform = btTransform(bt(rb.orientation), bt(rb.position));
+    info.m_friction = btScalar(rb.friction);
+    info.m_restitution = btScalar(rb.restitution);
+    slot.body = std::make_unique<btRigidBody>(info);
+    if (rb.dynamic()) {
+        slot.body->setLinearVelocity(bt(rb.linearVelocity));
+        slot.body->setAngularVelocity(bt(rb.angularVelocity));
+        if (!rb.canSleep) {
+            slot.body->setActivationState(DISABLE_DEACTIVATION);
+        }
+    }
+    world.addRigidBody(slot.body.get());
+    std::int32_t id;
+    if (!freeBodies.empty()) {
+        id = freeBodies.back();
+        freeBodies.pop_back();
+        bodies[std::size_t(id)] = std::move(slot);
+    } else {
+        id = std::int32_t(bodies.size());
+        bodies.push_back(std::move(slot));
+    }
+    return id;
+}
+
+void BulletWorld::Impl::removeBody(std::int32_t id) {
+    BodySlot& slot = bodies[std::size_t(id)];
+    world.removeRigidBody(slot.body.get());
+    slot = BodySlot{};
+    freeBodies.push_back(id);
+}
+
+namespace {
+
+/// A frame at `pivot` (in a body's frame) whose x axis is `axis` (the frame Bullet's slider slides along).
+btTransform frameAlong(const btVector3& pivot, const btVector3& axis) {
+    return btTransform(shortestArcQuat(btVector3(1, 0, 0), axis.normalized()), pivot);
+}
+
+/// A body's frame as Bullet has it: for the world, the identity.
+btTransform frameOf(const RigidBody* b) {
+    return b ? btTransform(bt(b->orientation), bt(b->position)) : btTransform::getIdentity();
+}
+
+} // namespace
+
+std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b) {
+    btRigidBody& ra = *body(a.bodyId);
+    btRigidBody& rb = b ? *body(b->bodyId) : btTypedConstraint::getFixedBody();
+    const btTransform ta = frameOf(&a).inverse(), tb = frameOf(b).inverse();
+    const btVector3 pivotA = ta * bt(j.pivot), pivotB = tb * bt(j.pivot);
+    const btVector3 axisA = ta.getBasis() * bt(j.axis), axisB = tb.getBasis() * bt(j.axis);
+    std::unique_ptr<btTypedConstraint> c;
+    switch (j.kind) {
+    case JointKind::Hinge: {
+        auto hinge = std::make_unique<btHingeConstraint>(ra, rb, pivotA, pivotB, axisA, axisB);
+        if (j.limited) {
+            hinge->setLimit(btScalar(j.lower), btScalar(j.upper));
+        }
+        c = std::move(hinge);
+        break;
+    }
+    case JointKind::Point:
+        c = std::make_unique<btPoint2PointConstraint>(ra, rb, pivotA, pivotB);
+        break;
+    case JointKind::Fixed:
+        c = std::make_unique<btFixedConstraint>(ra, rb, btTransform(ta.getRotation(), pivotA),
+                                                btTransform(tb.getRotation(), pivotB));
+        break;
+    case JointKind::Slider: {
+        auto slider = std::make_unique<btSliderConstraint>(ra, rb, frameAlong(pivotA, axisA),
+                                                           frameAlong(pivotB, axisB), true);
+        if (j.limited) {
+            slider->setLowerLinLimit(btScalar(j.lower));
+            slider->setUpperLinLimit(btScalar(j.upper));
+        }
+        c = std::move(slider);
+        break;
+    }
+    case JointKind::Spring:
+        break; // a force, applied each step
+    }
+    if (c) {
+        // the bodies a joint holds together do not also collide with each other
+        world.addConstraint(c.get(), true);
+    }
+    ConstraintSlot slot{jointEntity, std::move(c)};
+    std::int32_t id;
+    if (!freeConstraints.empty()) {
+        id = freeConstraints.back();
+        freeConstraints.pop_back();
+        constraints[std::size_t(id)] = std::move(slot);
+    } else {
+        id = std::int32_t(constraints.size());
+        constraints.push_back(std::move(slot));
+    }
+    return id;
+}
+
+void BulletWorld::Impl::removeConstraint(std::int32_t id) {
+    ConstraintSlot& slot = constraints[std::size_t(id)];
+    if (slot.constraint) {
+        world.removeConstraint(slot.constraint.get());
+    }
+    slot = ConstraintSlot{};
+    freeConstraints.push_back(id);
+}
+
+namespace {
+
+/// The body a joint end names, if it is still a body of this engine that the bridge has made.
+RigidBody* jointBody(World& world, Entity e) {
+    if (e == kNullEntity || !world.alive(e)) {
+        return nullptr;
+    }
+    RigidBody* b = world.tryGet<RigidBody>(e);
+    return b && b->bodyId >= 0 ? b : nullptr;
+}
+
+/// A damped spring between a point of body a and a point of body b (or of the world): F = k (|d| - rest) d/|d|
+/// plus damping on the speed along d, pulling a towards b and b towards a.
+void applySpring(BulletWorld::Impl& impl, const Joint& j, const RigidBody& a, const RigidBody* b) {
+    const Vec3 pa = a.toWorld(j.localA), pb = b ? b->toWorld(j.localB) : j.localB;
+    const Vec3 d = pb - pa;
+    const double len = length(d);
+    if (len < 1e-12) {
+        return;
+    }
+    const Vec3 n = d * (1.0 / len);
+    const Vec3 va = a.velocityAt(pa), vb = b ? b->velocityAt(pb) : Vec3{};
+    const double magnitude = j.stiffness * (len - j.rest) + j.damping * dot(vb - va, n);
+    const Vec3 f = n * magnitude;
+    impl.body(a.bodyId)->applyForce(bt(f), bt(pa - a.position));
+    impl.body(a.bodyId)->activate();
+    if (b && b->dynamic()) {
+        impl.body(b->bodyId)->applyForce(bt(-f), bt(pb - b->position));
+        impl.body(b->bodyId)->activate();
+    }
+}
+
+} // namespace
+
+void bulletSyncIn(World& world, const StepContext&) {
+    BulletWorld* bw = world.tryResource<BulletWorld>();
+    if (!bw) {
+        const Pool<RigidBody>* pool = world.findPool<RigidBody>();
+        if (!pool || pool->size() == 0) {
+            return; // no 3D bodies: no Bullet world
+        }
+        bw = &world.setResource<BulletWorld>(world.resource<SceneDef>());
+    }
+    BulletWorld::Impl& impl = bw->impl();
+
+    // constraints whose joint or bodies are gone go first, then bodies whose entities are gone
+    for (std::size_t i = 0; i < impl.constraints.size(); ++i) {
+        const Entity je = impl.constraints[i].joint;
+        if (je == kNullEntity) {
+            continue;
+        }
+        const Joint* j = world.alive(je) ? world.tryGet<Joint>(je) : nullptr;
+        if (!j || j->constraintId != std::int32_t(i) || !jointBody(world, j->a) ||
+            (j->b != kNullEntity && !jointBody(world, j->b))) {
+            impl.removeConstraint(std::int32_t(i));
+        }
+    }
+    for (std::size_t i = 0; i < impl.bodies.size(); ++i) {
+        const Entity e = impl.bodies[i].entity;
+        if (e == kNullEntity) {
+            continue;
+        }
+        const RigidBody* b = world.alive(e) ? world.tryGet<RigidBody>(e) : nullptr;
+        if (!b || b->bodyId != std::int32_t(i)) {
+            impl.removeBody(std::int32_t(i));
+        }
+    }
+
+    // new bodies, in entity order; then what was pushed onto existing ones
+    world.view<RigidBody>().each([&](Entity e, RigidBody& b) {
+        if (b.bodyId < 0) {
+            b.bodyId = impl.addBody(e, b);
+            b.teleported = false;
+        }
+        btRigidBody& body = *impl.body(b.bodyId);
+        if (!b.dynamic()) {
+            return;
+        }
+        if (b.teleported) {
+            body.setWorldTransform(btTransform(bt(b.orientation), bt(b.position)));
+            body.setLinearVelocity(bt(b.linearVelocity));
+            body.setAngularVelocity(bt(b.angularVelocity));
+            body.activate(true);
+            b.teleported = false;
+        }
+        if (b.impulse != Vec3{} || b.angularImpulse != Vec3{}) {
+            body.applyCentralImpulse(bt(b.impulse));
+            body.applyTorqueImpulse(bt(b.angularImpulse));
+            body.activate(true);
+            b.impulse = b.angularImpulse = Vec3{};
+        }
+    });
+
+    // joints: new constraints, and the springs' forces
+    world.view<Joint>().each([&](Entity e, Joint& j) {
+        if (j.twoD) {
+            return;
+        }
+        RigidBody* a = jointBody(world, j.a);
+        RigidBody* b = j.b == kNullEntity ? nullptr : jointBody(world, j.b);
+        if (!a || (j.b != kNullEntity && !b)) {
+            j.constraintId = -1;
+            return;
+        }
+        if (j.constraintId < 0) {
+            j.constraintId = impl.addConstraint(e, j, *a, b);
+            // the spring's ends, kept in the bodies' frames from here on
+            j.localA = a->toLocal(j.pivot);
+            j.localB = b ? b->toLocal(j.pivotB) : j.pivotB;
+        }
+        if (j.kind == JointKind::Spring) {
+            applySpring(impl, j, *a, b);
+        }
+    });
+}
+
+void bulletStep(World& world, const StepContext& ctx) {
+    if (BulletWorld* bw = world.tryResource<BulletWorld>()) {
+        // no fixed substep of Bullet's own: a maximum of 0 substeps takes exactly one step of dt
+        bw->impl().world.stepSimulation(btScalar(ctx.dt), 0, btScalar(ctx.dt));
+    }
+}
+
+void bulletSyncOut(World& world, const StepContext&) {
+    BulletWorld* bw = world.tryResource<BulletWorld>();
+    if (!bw) {
+        return;
+    }
+    BulletWorld::Impl& impl = bw->impl();
+    world.view<RigidBody, Transform>().each([&](Entity, RigidBody& b, Transform& t) {
+        if (b.bodyId < 0 || !b.dynamic()) {
+            return;
+        }
+        const btRigidBody& body = *impl.body(b.bodyId);
+        const btTransform& x = body.getWorldTransform();
+        b.position = fromBt(x.getOrigin());
+        b.orientation = fromBt(x.getRotation());
+        b.linearVelocity = fromBt(body.getLinearVelocity());
+        b.angularVelocity = fromBt(body.getAngularVelocity());
+        b.sleeping = body.getActivationState() == ISLAND_SLEEPING;
+        t.position = b.position;
+    });
+}
+
+} // namespace tumble

@@ -1,0 +1,47 @@
+#pragma once
+// The bridge to Bullet (3D rigid bodies). A resource, BulletWorld, owns Bullet's btDiscreteDynamicsWorld
+// and every body, shape and constraint in it; RigidBody and Joint components hold the ids. Each fixed step:
+//   bulletSyncIn   makes bodies for new RigidBody components and constraints for new Joints, removes those
+//                  whose entities are gone (constraints first), copies in poses set from outside and the
+//                  impulses that events, springs and particles left on the components;
+//   bulletStep     advances Bullet by exactly one internal step of the scene's dt;
+//   bulletSyncOut  copies poses and velocities back into RigidBody and Transform.
+//
+// Bullet is linked in its double-precision build (Debian ships both, `BulletConfig-float64.cmake`): the
+// rest of Tumble's state is double, so poses cross the bridge without rounding, and Bullet's SIMD paths are
+// compiled on x86 Linux for neither build (no BT_USE_SSE), so single precision would buy only memory.
+// Bodies are made in entity order, so a scene gives Bullet the same insertion order, and the same bits,
+// every run.
+
+#include "engine/scene.h"
+#include "engine/step_context.h"
+#include "engine/world.h"
+
+#include <memory>
+
+namespace tumble {
+
+/// Bullet's world and everything in it (an opaque resource).
+class BulletWorld {
+public:
+    explicit BulletWorld(const SceneDef& scene);
+    ~BulletWorld();
+    BulletWorld(const BulletWorld&) = delete;
+    BulletWorld& operator=(const BulletWorld&) = delete;
+
+    struct Impl;
+    Impl& impl() { return *m_impl; }
+
+    /// Bodies and constraints in Bullet now (for tests).
+    std::size_t bodyCount() const;
+    std::size_t constraintCount() const;
+
+private:
+    std::unique_ptr<Impl> m_impl;
+};
+
+void bulletSyncIn(World& world, const StepContext& ctx);
+void bulletStep(World& world, const StepContext& ctx);
+void bulletSyncOut(World& world, const StepContext& ctx);
+
+} // namespace tumble

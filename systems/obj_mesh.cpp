@@ -1,0 +1,105 @@
+#include "systems/obj_mesh.h"
+
+#include "engine/gl_context.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace tumble {
+
+namespace fs = std::filesystem;
+
+namespace {
+constexpr std::size_t kMaxVertices = 1u << 20;
+} // namespace
+
+std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std::string& displayName) {
+    std::ifstream in(file);
+    if (!in) {
+        throw std::runtime_error(displayName + ": cannot be read");
+    }
+    auto mesh = std::make_shared<ShapeMesh>();
+    mesh->path = displayName;
+    std::string line;
+    int lineNo = 0;
+    auto fail = [&](const std::string& what) {
+        throw std::runtime_error(displayName + ":" + std::to_string(lineNo) + ": " + what);
+    };
+    while (std::getline(in, line)) {
+        ++lineNo;
+        std::istringstream ss(line);
+        std::string tag;
+        ss >> tag;
+        if (tag == "v") {
+            Vec3 p;
+            if (!(ss >> p.x >> p.y >> p.z) || !isFinite(p)) {
+                fail("a vertex needs three finite numbers: 'v x y z'");
+            }
+            if (mesh->vertices.size() >= kMaxVertices) {
+                fail("too many vertices (at most " + std::to_string(kMaxVertices) + ")");
+            }
+            mesh->vertices.push_back(p);
+        } else if (tag == "f") {
+            std::vector<std::uint32_t> corners;
+            std::string corner;
+            while (ss >> corner) {
+                long index = 0;
+                try {
+                    index = std::stol(corner.substr(0, corner.find('/')));
+                } catch (const std::exception&) {
+                    fail("'" + corner + "' is not a vertex index");
+                }
+                // negative indices count back from the last vertex read
+                const long n = static_cast<long>(mesh->vertices.size());
+                const long resolved = index < 0 ? n + index : index - 1;
+                if (index == 0 || resolved < 0 || resolved >= n) {
+                    fail("vertex " + std::to_string(index) + " does not exist (" + std::to_string(n) +
+                         " read so far)");
+                }
+                corners.push_back(static_cast<std::uint32_t>(resolved));
+            }
+            if (corners.size() < 3) {
+                fail("a face needs at least three vertices");
+            }
+            for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
+                mesh->triangles.push_back({corners[0], corners[k], corners[k + 1]});
+            }
+        }
+    }
+    if (mesh->triangles.empty()) {
+        throw std::runtime_error(displayName + ": no faces ('f' lines)");
+    }
+    mesh->lo = mesh->hi = mesh->vertices[mesh->triangles[0][0]];
+    for (const Vec3& p : mesh->vertices) {
+        mesh->lo = {std::min(mesh->lo.x, p.x), std::min(mesh->lo.y, p.y), std::min(mesh->lo.z, p.z)};
+        mesh->hi = {std::max(mesh->hi.x, p.x), std::max(mesh->hi.y, p.y), std::max(mesh->hi.z, p.z)};
+    }
+    for (const auto& t : mesh->triangles) {
+        const Vec3 n = cross(mesh->vertices[t[1]] - mesh->vertices[t[0]], mesh->vertices[t[2]] - mesh->vertices[t[0]]);
+        const double len = length(n);
+        mesh->faceNormals.push_back(len > 0.0 ? n * (1.0 / len) : Vec3{0.0, 1.0, 0.0});
+    }
+    return mesh;
+}
+
+std::string findMeshFile(const std::string& name, const std::string& scenarioFile) {
+    const fs::path p(name);
+    std::error_code ec;
+    if (p.is_absolute()) {
+        return fs::is_regular_file(p, ec) ? name : "";
+    }
+    const fs::path besideScenario = fs::path(scenarioFile).parent_path() / p;
+    if (fs::is_regular_file(besideScenario, ec)) {
+        return besideScenario.string();
+    }
+    const fs::path underRoot = fs::path(assetDirectory()).parent_path() / p;
+    if (fs::is_regular_file(underRoot, ec)) {
+        return underRoot.string();
+    }
+    return "";
+}
+
+} // namespace tumble

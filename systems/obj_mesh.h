@@ -1,0 +1,21 @@
+#pragma once
+// Reading the meshes of `convex` and `mesh` rigid bodies from Wavefront OBJ files: `v x y z` and `f a b c`
+// lines only (polygons are fanned into triangles; texture and normal indices after '/' are skipped; other
+// lines ignored). Written here because none of the packages Tumble builds on reads OBJ, and the rocks and
+// the mountainside need no more than this.
+
+#include "components/rigid_body.h"
+
+#include <memory>
+#include <string>
+
+namespace tumble {
+
+/// Reads an OBJ file. Throws std::runtime_error naming file:line and the problem.
+std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std::string& displayName);
+
+/// Where a mesh named in a scenario is: an absolute path as it is; otherwise next to the scenario file,
+/// else under the project's root (the folder that holds assets/). Empty when neither exists.
+std::string findMeshFile(const std::string& name, const std::string& scenarioFile);
+
+} // namespace tumble

@@ -1,0 +1,398 @@
+#include "systems/rigid_system.h"
+
+#include "components/joint.h"
+#include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
+#include "components/transform.h"
+#include "systems/box2d_bridge.h"
+#include "systems/bullet_bridge.h"
+#include "systems/obj_mesh.h"
+
+#include <cmath>
+#include <map>
+
+namespace tumble {
+
+namespace {
+
+constexpr double kHuge = 1e9;
+
+/// Meshes already read, by file, so that 300 rocks share one.
+struct MeshCache {
+    std::map<std::string, std::shared_ptr<const ShapeMesh>> byFile;
+};
+
+std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world) {
+    const std::string name = r.requiredString("mesh");
+    const std::string file = findMeshFile(name, r.context().file);
+    if (file.empty()) {
+        r.fail("mesh", "mesh file '" + name + "' not found (looked next to the scenario and under the project root)");
+    }
+    MeshCache* cache = world.tryResource<MeshCache>();
+    if (!cache) {
+        cache = &world.setResource<MeshCache>();
+    }
+    auto& slot = cache->byFile[file];
+    if (!slot) {
+        try {
+            slot = readObjMesh(file, name);
+        } catch (const std::exception& e) {
+            cache->byFile.erase(file);
+            r.fail("mesh", e.what());
+        }
+    }
+    return slot;
+}
+
+Vec3 vec(const std::array<double, 3>& a) {
+    return {a[0], a[1], a[2]};
+}
+
+void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    RigidBody b;
+    const std::string shape =
+        r.choice("shape", "box", {"plane", "box", "sphere", "capsule", "cylinder", "convex", "mesh"});
+    b.shape = shape == "plane"      ? ShapeKind::Plane
+              : shape == "box"      ? ShapeKind::Box
+              : shape == "sphere"   ? ShapeKind::Sphere
+              : shape == "capsule"  ? ShapeKind::Capsule
+              : shape == "cylinder" ? ShapeKind::Cylinder
+              : shape == "convex"   ? ShapeKind::Convex
+                                    : ShapeKind::Mesh;
+    if (b.shape == ShapeKind::Plane) {
+        const Vec3 normal = vec(r.vector<3>("normal", {0.0, 1.0, 0.0}, -kHuge, kHuge));
+        if (length(normal) < 1e-12) {
+            r.fail("normal", "'normal' of a plane must not be zero");
+        }
+        b.normal = normal * (1.0 / length(normal));
+    }
+    if (b.shape == ShapeKind::Box) {
+        b.halfExtents = vec(r.vector<3>("half_extents", {0.5, 0.5, 0.5}, 1e-3, kHuge));
+    }
+    if (b.shape == ShapeKind::Sphere || b.shape == ShapeKind::Capsule || b.shape == ShapeKind::Cylinder) {
+        b.radius = r.number("radius", 0.5, 1e-3, kHuge);
+    }
+    if (b.shape == ShapeKind::Capsule || b.shape == ShapeKind::Cylinder) {
+        b.height = r.number("height", 1.0, b.shape == ShapeKind::Cylinder ? 1e-3 : 0.0, kHuge);
+    }
+    if (b.shape == ShapeKind::Convex || b.shape == ShapeKind::Mesh) {
+        b.mesh = loadMesh(r, world);
+    }
+    b.mass = r.number("mass", 0.0, 0.0, 1e9);
+    if (b.mass > 0.0 && (b.shape == ShapeKind::Plane || b.shape == ShapeKind::Mesh)) {
+        r.fail("mass", "a " + shape + " can only be static (mass = 0)" +
+                           (b.shape == ShapeKind::Mesh ? "; a moving mesh is a 'convex' shape" : ""));
+    }
+    b.friction = r.number("friction", 0.6, 0.0, 100.0);
+    b.restitution = r.number("restitution", 0.0, 0.0, 1.0);
+    b.canSleep = r.boolean("sleep", true);
+    const auto q = r.vector<4>("orientation", {0.0, 0.0, 0.0, 1.0}, -kHuge, kHuge);
+    const double qn = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (qn < 1e-9) {
+        r.fail("orientation", "'orientation' is a quaternion [x, y, z, w] and must not be zero");
+    }
+    b.orientation = {q[0] / qn, q[1] / qn, q[2] / qn, q[3] / qn};
+    if (b.shape == ShapeKind::Plane && b.orientation != Quat{}) {
+        r.fail("orientation", "a plane is oriented by its 'normal', not by 'orientation'");
+    }
+    b.linearVelocity = vec(r.vector<3>("linear_velocity", {0.0, 0.0, 0.0}, -1e5, 1e5));
+    b.angularVelocity = vec(r.vector<3>("angular_velocity", {0.0, 0.0, 0.0}, -1e5, 1e5));
+    if (!b.dynamic() && (b.linearVelocity != Vec3{} || b.angularVelocity != Vec3{})) {
+        r.fail(b.linearVelocity != Vec3{} ? "linear_velocity" : "angular_velocity",
+               "a static body (mass = 0) cannot move; give it a mass to set its velocity");
+    }
+    const bool plane = b.shape == ShapeKind::Plane;
+    b.color = vec(
+        r.vector<3>("color", plane ? std::array{0.55, 0.57, 0.52} : std::array{0.62, 0.60, 0.56}, 0.0, 1.0));
+    b.position = world.get<Transform>(entity).position;
+    world.emplace<RigidBody>(entity, b);
+}
+
+/// Box2D's conditions on a polygon, checked here so that bad input is an error and not Box2D's assertion:
+/// 3 to 8 vertices, convex, with area, no two closer than Box2D merges; returned counter-clockwise.
+std::vector<Vec2> readPolygon(TableReader& r) {
+    const toml::array* list = r.array("vertices", 8);
+    if (!list) {
+        r.fail("vertices", "a polygon needs 'vertices', 3 to 8 points [[x, y], ...], convex");
+    }
+    if (list->size() < 3) {
+        r.fail("vertices", "a polygon needs 3 to 8 vertices, not " + std::to_string(list->size()));
+    }
+    std::vector<Vec2> v(list->size());
+    for (std::size_t i = 0; i < list->size(); ++i) {
+        r.readNumbers(*list->get(i), "vertices", v[i].data(), 2, -kHuge, kHuge);
+    }
+    double twiceArea = 0.0;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        const Vec2& p = v[i];
+        const Vec2& q = v[(i + 1) % v.size()];
+        twiceArea += p[0] * q[1] - q[0] * p[1];
+        if (std::hypot(q[0] - p[0], q[1] - p[1]) < 0.01) {
+            r.fail("vertices", "vertices " + std::to_string(i) + " and " + std::to_string((i + 1) % v.size()) +
+                                   " are closer than 1 cm (Box2D would merge them)");
+        }
+    }
+    if (std::abs(twiceArea) < 1e-6) {
+        r.fail("vertices", "the polygon has no area");
+    }
+    if (twiceArea < 0.0) {
+        std::reverse(v.begin(), v.end());
+    }
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        const Vec2& a = v[i];
+        const Vec2& b = v[(i + 1) % v.size()];
+        const Vec2& c = v[(i + 2) % v.size()];
+        const double turn = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
+        if (turn <= 0.0) {
+            r.fail("vertices", "the polygon is not convex at vertex " + std::to_string((i + 1) % v.size()) +
+                                   " (Box2D takes convex polygons; split a concave one into bodies joined by a "
+                                   "fixed joint)");
+        }
+    }
+    return v;
+}
+
+void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    RigidBody2D b;
+    const std::string shape = r.choice("shape", "box", {"box", "circle", "polygon", "edge"});
+    b.shape = shape == "box"      ? Shape2DKind::Box
+              : shape == "circle" ? Shape2DKind::Circle
+              : shape == "polygon" ? Shape2DKind::Polygon
+                                   : Shape2DKind::Edge;
+    switch (b.shape) {
+    case Shape2DKind::Box:
+        b.halfExtents = r.vector<2>("half_extents", {0.5, 0.5}, 0.01, kHuge);
+        break;
+    case Shape2DKind::Circle:
+        b.radius = r.number("radius", 0.5, 0.01, kHuge);
+        break;
+    case Shape2DKind::Polygon:
+        b.vertices = readPolygon(r);
+        break;
+    case Shape2DKind::Edge:
+        b.from = r.vector<2>("from", {-1.0, 0.0}, -kHuge, kHuge);
+        b.to = r.vector<2>("to", {1.0, 0.0}, -kHuge, kHuge);
+        if (std::hypot(b.to[0] - b.from[0], b.to[1] - b.from[1]) < 0.01) {
+            r.fail("to", "an edge's 'from' and 'to' must be at least 1 cm apart");
+        }
+        break;
+    }
+    b.mass = r.number("mass", 0.0, 0.0, 1e9);
+    if (b.mass > 0.0 && b.shape == Shape2DKind::Edge) {
+        r.fail("mass", "an edge has no area to carry a mass: it can only be static (mass = 0)");
+    }
+    b.friction = r.number("friction", 0.6, 0.0, 100.0);
+    b.restitution = r.number("restitution", 0.0, 0.0, 1.0);
+    b.canSleep = r.boolean("sleep", true);
+    b.angle = r.number("angle", 0.0, -1e6, 1e6);
+    b.velocity = r.vector<2>("linear_velocity", {0.0, 0.0}, -1e5, 1e5);
+    b.angularVelocity = r.number("angular_velocity", 0.0, -1e5, 1e5);
+    if (!b.dynamic() && (b.velocity != Vec2{0.0, 0.0} || b.angularVelocity != 0.0)) {
+        r.fail(b.velocity != Vec2{0.0, 0.0} ? "linear_velocity" : "angular_velocity",
+               "a static body (mass = 0) cannot move; give it a mass to set its velocity");
+    }
+    b.color = vec(r.vector<3>("color", {0.62, 0.60, 0.56}, 0.0, 1.0));
+    const Vec3 p = world.get<Transform>(entity).position;
+    b.position = {p.x, p.y};
+    world.emplace<RigidBody2D>(entity, b);
+}
+
+// ---- joints
+
+void loadJoint(TableReader& r, World& world, const EntityLookup& lookup) {
+    Joint j;
+    const std::string type = r.choice("type", "point", {"hinge", "point", "fixed", "slider", "spring"});
+    j.kind = type == "hinge"    ? JointKind::Hinge
+             : type == "point"  ? JointKind::Point
+             : type == "fixed"  ? JointKind::Fixed
+             : type == "slider" ? JointKind::Slider
+                                : JointKind::Spring;
+    j.a = lookup(r, "a", true);
+    j.b = lookup(r, "b", false);
+    const RigidBody* a3 = world.tryGet<RigidBody>(j.a);
+    const RigidBody2D* a2 = world.tryGet<RigidBody2D>(j.a);
+    if (!a3 && !a2) {
+        r.fail("a", "'a' must name a rigid body (an entity with rigid_body or rigid_body_2d)");
+    }
+    j.twoD = a2 != nullptr;
+    const RigidBody* b3 = j.b == kNullEntity ? nullptr : world.tryGet<RigidBody>(j.b);
+    const RigidBody2D* b2 = j.b == kNullEntity ? nullptr : world.tryGet<RigidBody2D>(j.b);
+    if (j.b != kNullEntity) {
+        if (j.b == j.a) {
+            r.fail("b", "a joint joins two different bodies ('b' omitted: the body and the world)");
+        }
+        if (j.twoD ? !b2 : !b3) {
+            r.fail("b", std::string("'b' must name a ") + (j.twoD ? "rigid_body_2d" : "rigid_body") +
+                            " like 'a' (a joint cannot join a 2D body and a 3D one)");
+        }
+    }
+    const bool aMoves = j.twoD ? a2->dynamic() : a3->dynamic();
+    const bool bMoves = j.b != kNullEntity && (j.twoD ? b2->dynamic() : b3->dynamic());
+    if (!aMoves && !bMoves) {
+        r.fail("a", "this joint holds nothing that moves: give 'a' or 'b' a mass");
+    }
+    const Vec3 aCentre = world.get<Transform>(j.a).position;
+    j.pivot = vec(r.vector<3>("pivot", {aCentre.x, aCentre.y, aCentre.z}, -kHuge, kHuge));
+    if (j.kind == JointKind::Hinge || j.kind == JointKind::Slider) {
+        const Vec3 axis = vec(r.vector<3>("axis", {0.0, 0.0, 1.0}, -kHuge, kHuge));
+        const double len = j.twoD && j.kind == JointKind::Slider ? std::hypot(axis.x, axis.y) : length(axis);
+        if (len < 1e-9) {
+            r.fail("axis", j.twoD ? "a 2D slider's 'axis' must have an x or y part" : "'axis' must not be zero");
+        }
+        j.axis = axis * (1.0 / length(axis));
+        if (r.has("limits")) {
+            const auto lim = r.range("limits", {0.0, 0.0}, -kHuge, kHuge);
+            j.limited = true;
+            j.lower = lim.first;
+            j.upper = lim.second;
+        }
+    } else {
+        for (const char* key : {"axis", "limits"}) {
+            if (r.has(key)) {
+                r.fail(key, "a " + type + " joint takes no '" + key + "' (hinge and slider joints do)");
+            }
+        }
+    }
+    if (j.kind == JointKind::Spring) {
+        const Vec3 bEnd = j.b == kNullEntity ? j.pivot : world.get<Transform>(j.b).position;
+        j.pivotB = vec(r.vector<3>("pivot_b", {bEnd.x, bEnd.y, bEnd.z}, -kHuge, kHuge));
+        j.stiffness = r.requiredNumber("stiffness", 0.0, 1e9);
+        j.damping = r.number("damping", 0.0, 0.0, 1e9);
+        j.rest = r.number("rest", length(j.pivotB - j.pivot), 0.0, kHuge);
+    } else {
+        for (const char* key : {"pivot_b", "stiffness", "damping", "rest"}) {
+            if (r.has(key)) {
+                r.fail(key, "'" + std::string(key) + "' belongs to spring joints, not to a " + type + " joint");
+            }
+        }
+    }
+    const Entity e = world.create();
+    world.emplace<Joint>(e, j);
+}
+
+// ---- dump and hash
+
+void dumpRigid(const RigidBody& b, JsonWriter& w) {
+    const double x[3] = {b.position.x, b.position.y, b.position.z};
+    const double q[4] = {b.orientation.x, b.orientation.y, b.orientation.z, b.orientation.w};
+    const double v[3] = {b.linearVelocity.x, b.linearVelocity.y, b.linearVelocity.z};
+    const double om[3] = {b.angularVelocity.x, b.angularVelocity.y, b.angularVelocity.z};
+    w.key("x").beginArray().numbers(x).endArray();
+    w.key("q").beginArray().numbers(q).endArray();
+    w.key("v").beginArray().numbers(v).endArray();
+    w.key("w").beginArray().numbers(om).endArray();
+}
+
+void hashRigid(const RigidBody& b, Hasher& h) {
+    h.add(b.position);
+    h.add(b.orientation);
+    h.add(b.linearVelocity);
+    h.add(b.angularVelocity);
+    h.add(b.sleeping);
+}
+
+void dumpRigid2D(const RigidBody2D& b, JsonWriter& w) {
+    w.key("x").beginArray().numbers(b.position.data(), 2).endArray();
+    w.key("angle").beginArray().value(b.angle).endArray();
+    w.key("v").beginArray().numbers(b.velocity.data(), 2).endArray();
+}
+
+void hashRigid2D(const RigidBody2D& b, Hasher& h) {
+    h.add(b.position);
+    h.add(b.angle);
+    h.add(b.velocity);
+    h.add(b.angularVelocity);
+    h.add(b.sleeping);
+}
+
+// ---- events
+
+bool isRigid(const World& w, Entity e) {
+    return w.has<RigidBody>(e);
+}
+bool isRigid2D(const World& w, Entity e) {
+    return w.has<RigidBody2D>(e);
+}
+
+template <class Body>
+std::optional<std::string> checkVelocityEvent(const World& w, Entity e, const EventDef& ev, std::size_t linear,
+                                              std::size_t withAngular) {
+    if (!w.get<Body>(e).dynamic()) {
+        return "the body is static (mass = 0) and cannot be pushed";
+    }
+    if (ev.value.size() != linear && ev.value.size() != withAngular) {
+        return linear == 3 ? "needs value = [x, y, z] (or six numbers: linear, then angular)"
+                           : "needs value = [x, y] (or three numbers: linear, then angular about z)";
+    }
+    return std::nullopt;
+}
+
+void registerRigidEvents(Catalog& catalog) {
+    // impulse: N s at the centre of mass (and, with six numbers, N m s about it)
+    catalog.addEventAction(
+        {"impulse", "a rigid body", {"value"}, isRigid,
+         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody>(w, e, ev, 3, 6); },
+         [](World& w, Entity e, const EventDef& ev) {
+             RigidBody& b = w.get<RigidBody>(e);
+             b.impulse += Vec3{ev.value[0], ev.value[1], ev.value[2]};
+             if (ev.value.size() == 6) {
+                 b.angularImpulse += Vec3{ev.value[3], ev.value[4], ev.value[5]};
+             }
+         }});
+    catalog.addEventAction(
+        {"set_velocity", "a rigid body", {"value"}, isRigid,
+         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody>(w, e, ev, 3, 6); },
+         [](World& w, Entity e, const EventDef& ev) {
+             RigidBody& b = w.get<RigidBody>(e);
+             b.linearVelocity = {ev.value[0], ev.value[1], ev.value[2]};
+             if (ev.value.size() == 6) {
+                 b.angularVelocity = {ev.value[3], ev.value[4], ev.value[5]};
+             }
+             b.teleported = true;
+         }});
+    catalog.addEventAction(
+        {"impulse", "a 2D rigid body", {"value"}, isRigid2D,
+         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody2D>(w, e, ev, 2, 3); },
+         [](World& w, Entity e, const EventDef& ev) {
+             RigidBody2D& b = w.get<RigidBody2D>(e);
+             b.impulse[0] += ev.value[0];
+             b.impulse[1] += ev.value[1];
+             if (ev.value.size() == 3) {
+                 b.angularImpulse += ev.value[2];
+             }
+         }});
+    catalog.addEventAction(
+        {"set_velocity", "a 2D rigid body", {"value"}, isRigid2D,
+         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody2D>(w, e, ev, 2, 3); },
+         [](World& w, Entity e, const EventDef& ev) {
+             RigidBody2D& b = w.get<RigidBody2D>(e);
+             b.velocity = {ev.value[0], ev.value[1]};
+             if (ev.value.size() == 3) {
+                 b.angularVelocity = ev.value[2];
+             }
+             b.teleported = true;
+         }});
+}
+
+} // namespace
+
+void registerRigidSystem(Catalog& catalog) {
+    catalog.addComponent({"rigid_body", loadRigidBody});
+    catalog.addComponent({"rigid_body_2d", loadRigidBody2D});
+    catalog.setJointLoader(loadJoint);
+    catalog.addState<RigidBody>("rigid", dumpRigid, hashRigid);
+    catalog.addState<RigidBody2D>("rigid2d", dumpRigid2D, hashRigid2D);
+    registerRigidEvents(catalog);
+    catalog.addSystem(Phase::Fixed, "rigid_in", [](World& world, const StepContext& ctx) {
+        bulletSyncIn(world, ctx);
+        box2dSyncIn(world, ctx);
+    });
+    catalog.addSystem(Phase::Fixed, "bullet", bulletStep);
+    catalog.addSystem(Phase::Fixed, "box2d", box2dStep);
+    catalog.addSystem(Phase::Fixed, "rigid_out", [](World& world, const StepContext& ctx) {
+        bulletSyncOut(world, ctx);
+        box2dSyncOut(world, ctx);
+    });
+}
+
+} // namespace tumble
