@@ -4,6 +4,7 @@
 // builders (springs, rope, cloth, softbody) differ only in how they lay out masses and links; one set of
 // integrators advances them all.
 
+#include "engine/entity.h"
 #include "engine/math.h"
 
 #include <array>
@@ -28,6 +29,14 @@ struct SpringLink {
     double kd = 0.0;     ///< N s/m, damping along the spring on the relative velocity
 };
 
+/// A mass held by a rigid body ([[joint]] type "anchor"): it moves with the body's point, and the body
+/// feels what the springs and gravity pull on the mass with.
+struct SpringAnchor {
+    std::uint32_t mass = 0; ///< the held mass (pinned while held)
+    Entity body;            ///< a rigid_body (3D)
+    Vec3 local;             ///< the point that holds it, in the body's frame
+};
+
 /// The state and model of a spring network; every per-mass array has one entry per mass.
 struct SpringNetwork {
     // state, advanced by the spring system
@@ -38,6 +47,7 @@ struct SpringNetwork {
     std::vector<double> invMass;      ///< 1/kg (a pinned mass keeps its mass for when it is unpinned)
     std::vector<std::uint8_t> pinned; ///< 1 if the mass is held in place
     std::vector<SpringLink> links;
+    std::vector<SpringAnchor> anchors; ///< masses held by rigid bodies (set by [[joint]] type "anchor")
     double drag = 0.0; ///< N s/m, global -drag v on every mass
     Integrator integrator = Integrator::SymplecticEuler;
     double thickness = 0.0;            ///< m, kept between masses and collider surfaces

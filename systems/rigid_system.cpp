@@ -3,6 +3,7 @@
 #include "components/joint.h"
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
+#include "components/spring_network.h"
 #include "components/transform.h"
 #include "systems/box2d_bridge.h"
 #include "systems/bullet_bridge.h"
@@ -199,9 +200,42 @@ void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef
 
 // ---- joints
 
+/// type = "anchor": a spring network's mass held by a 3D rigid body (a = the network, mass = its index,
+/// b = the body, pivot = the holding point, by default where the mass is).
+void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
+    const Entity netEntity = lookup(r, "a", true);
+    SpringNetwork* net = world.tryGet<SpringNetwork>(netEntity);
+    if (!net) {
+        r.fail("a", "an anchor's 'a' must name a spring network (springs, rope, cloth or softbody)");
+    }
+    const auto mass = static_cast<std::uint32_t>(r.integer("mass", 0, 0, std::int64_t(net->x.size()) - 1));
+    if (!r.has("mass")) {
+        r.fail("mass", "an anchor needs 'mass', the index of the held mass");
+    }
+    const Entity bodyEntity = lookup(r, "b", true);
+    const RigidBody* body = world.tryGet<RigidBody>(bodyEntity);
+    if (!body) {
+        r.fail("b", "an anchor's 'b' must name a rigid_body (3D) that holds the mass");
+    }
+    for (const SpringAnchor& a : net->anchors) {
+        if (a.mass == mass) {
+            r.fail("mass", "mass " + std::to_string(mass) + " is anchored twice");
+        }
+    }
+    const Vec3 at = net->x[mass];
+    const Vec3 pivot = vec(r.vector<3>("pivot", {at.x, at.y, at.z}, -kHuge, kHuge));
+    net->anchors.push_back({mass, bodyEntity, body->toLocal(pivot)});
+    net->pinned[mass] = 1;
+}
+
 void loadJoint(TableReader& r, World& world, const EntityLookup& lookup) {
     Joint j;
-    const std::string type = r.choice("type", "point", {"hinge", "point", "fixed", "slider", "spring"});
+    const std::string type =
+        r.choice("type", "point", {"hinge", "point", "fixed", "slider", "spring", "anchor"});
+    if (type == "anchor") {
+        loadAnchor(r, world, lookup);
+        return;
+    }
     j.kind = type == "hinge"    ? JointKind::Hinge
              : type == "point"  ? JointKind::Point
              : type == "fixed"  ? JointKind::Fixed

@@ -1,6 +1,7 @@
 #include "systems/spring_system.h"
 
 #include "components/name.h"
+#include "components/rigid_body.h"
 #include "components/transform.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
@@ -356,6 +357,56 @@ bool blewUp(const SpringNetwork& net) {
 
 } // namespace
 
+/// Anchored masses take the position and velocity of the body's point that holds them (pinned, a mass
+/// moves by its velocity through the step, so it keeps up with the body); a body that is gone lets go.
+void followAnchors(World& world, SpringNetwork& net) {
+    for (std::size_t k = 0; k < net.anchors.size();) {
+        const SpringAnchor& a = net.anchors[k];
+        const RigidBody* body = world.alive(a.body) ? world.tryGet<RigidBody>(a.body) : nullptr;
+        if (!body) {
+            net.pinned[a.mass] = 0;
+            net.anchors.erase(net.anchors.begin() + std::ptrdiff_t(k));
+            continue;
+        }
+        net.x[a.mass] = body->toWorld(a.local);
+        net.v[a.mass] = body->velocityAt(net.x[a.mass]);
+        ++k;
+    }
+}
+
+/// What the springs and gravity pull each anchored mass with, handed to its body as an impulse over the
+/// step (the mass's own inertia is left out: it moves with the body).
+void pullAnchors(World& world, SpringNetwork& net, const Environment& env, double dt) {
+    for (const SpringAnchor& a : net.anchors) {
+        RigidBody& body = world.get<RigidBody>(a.body);
+        // the integrators leave a pinned mass where it was, at rest; a held one moves with its body, as the
+        // implicit solve assumed it would (its right-hand side carries the pinned mass's velocity): leaving it
+        // behind put its neighbours a step ahead of it, a force along the body's motion that pumped energy
+        // into a crate on a rope until it flew apart
+        const Vec3 start = body.toWorld(a.local);
+        net.v[a.mass] = body.velocityAt(start);
+        net.x[a.mass] = start + net.v[a.mass] * dt;
+        Vec3 f = env.gravity * (1.0 / net.invMass[a.mass]);
+        for (const SpringLink& s : net.links) {
+            if (s.a != a.mass && s.b != a.mass) {
+                continue;
+            }
+            const Vec3 d = net.x[s.b] - net.x[s.a];
+            const double len = length(d);
+            if (len < 1e-12) {
+                continue;
+            }
+            const Vec3 u = d * (1.0 / len);
+            const Vec3 onA = u * (s.k * (len - s.rest) + s.kd * dot(net.v[s.b] - net.v[s.a], u));
+            f += s.a == a.mass ? onA : -onA;
+        }
+        if (body.dynamic()) {
+            body.impulse += f * dt;
+            body.angularImpulse += cross(net.x[a.mass] - body.position, f * dt);
+        }
+    }
+}
+
 void integrateSprings(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Pool<ForceField>* fields = world.findPool<ForceField>();
@@ -367,7 +418,9 @@ void integrateSprings(World& world, const StepContext& ctx) {
             }
             std::string problem;
             try {
+                followAnchors(world, net);
                 stepNetwork(net, work, env, ctx.dt);
+                pullAnchors(world, net, env, ctx.dt);
                 if (blewUp(net)) {
                     problem = "its state became non-finite or faster than 10 km/s";
                 }

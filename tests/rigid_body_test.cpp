@@ -401,6 +401,53 @@ pin = "none"
     EXPECT_NEAR(top, 1.0 + 0.02, 0.05) << "the sheet lies on the crate's top";
 }
 
+TEST(RigidBodies, ACrateHangsFromARopeThatStretchesByItsWeight) {
+    // a rope of 10 links (k = 20000 N/m each) pinned at the top, its last mass anchored to a 10 kg crate's
+    // top. At rest link j (from the top) carries the crate and the rope masses below it:
+    // T_j = (M + (10 - j) m) g, and the crate sits lower by sum_j T_j / k.
+    auto sim = test::simulate(scene(1.0 / 60.0, R"(
+[[entity]]
+name = "rope"
+[entity.transform]
+position = [0, 4, 0]
+[entity.rope]
+segments = 10
+length = 2.0
+direction = [0, -1, 0]
+mass = 0.55
+stiffness = 20000.0
+damping = 20.0
+pin = "first"
+integrator = "implicit_euler"
+cg_tolerance = 1e-8
+solver_precision = "double"
+[[entity]]
+name = "crate"
+[entity.transform]
+position = [0, 1.75, 0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [0.25, 0.25, 0.25]
+mass = 10.0
+[[joint]]
+type = "anchor"
+a = "rope"
+mass = 10
+b = "crate"
+)"));
+    runFrames(*sim, 600);
+    const RigidBody& crate = test::component<RigidBody>(*sim, "crate");
+    const SpringNetwork& rope = test::component<SpringNetwork>(*sim, "rope");
+    const double m = 0.55 / 11.0, M = 10.0, k = 20000.0;
+    double stretch = 0.0;
+    for (int j = 0; j < 10; ++j) {
+        stretch += (M + (10 - j) * m) * kG / k;
+    }
+    EXPECT_NEAR(crate.position.y, 1.75 - stretch, 0.05 * stretch) << "stretch " << stretch;
+    EXPECT_LT(length(crate.linearVelocity), 1e-3);
+    EXPECT_LT(length(rope.x[10] - crate.toWorld({0, 0.25, 0})), 1e-3) << "the rope's end is on the crate";
+}
+
 TEST(RigidBodies, ParticlesBounceOffAMovingPaddle) {
     // zero gravity; a paddle rising at 2 m/s, particles falling onto it at 3 m/s, restitution 1: they leave
     // at 2 * 2 + 3 = 7 m/s upwards (the elastic bounce off a moving wall)
