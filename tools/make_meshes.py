@@ -48,7 +48,7 @@ def rock(seed, count=24):
     return verts, [tuple(index[i] for i in f) for f in faces]
 
 
-def mountainside(nx=30, nz=16, width=30.0, depth=16.0, top=9.0):
+def mountainside(nx=30, nz=16, width=30.0, depth=16.0, top=13.0):
     """A slope falling from x = -15 (height `top`) to the plain at x = +9, with gentle bumps."""
     rng = random.Random(7)
     bumps = [(rng.uniform(-14, 6), rng.uniform(-7, 7), rng.uniform(0.2, 0.6), rng.uniform(1.5, 3.0))
