@@ -114,7 +114,8 @@ std::int32_t BulletWorld::Impl::addBody(Entity e, const RigidBody& rb) {
         }
         hull->recalcLocalAabb();
         hull->optimizeConvexHull();
-        hull->initializePolyhedralFeatures();
+        // no initializePolyhedralFeatures(): its clipping contacts cost the avalanche 4.2-5.0 ms a frame
+        // (p50) against 2.2-2.8 ms with Bullet's default GJK contacts, and the rocks settle as well
         slot.shape = std::move(hull);
         break;
     }
