@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -220,6 +221,67 @@ axis = [0, 0, 1]
     const RigidBody& last = test::component<RigidBody>(*sim, "plank_4");
     EXPECT_LT(last.position.y, 4.0) << "the chain swung down";
     EXPECT_NEAR(last.orientation.x, 0.0, 1e-6) << "hinges about z keep it in the xy plane";
+}
+
+/// A body of 1 kg hanging from the world on a spring joint (k = 100 N/m, rest 1 m), released from its rest
+/// length: it oscillates about rest + m g / k with period 2 pi sqrt(m / k).
+TEST(RigidBodies, ASpringJointOscillatesWithItsPeriodInBothEngines) {
+    const double k = 100.0, m = 1.0, dt = 1.0 / 240.0;
+    for (bool twoD : {false, true}) {
+        auto sim = test::simulate(scene(dt, std::string("[[entity]]\nname = \"bob\"\n[entity.transform]\n"
+                                                        "position = [0, 4, 0]\n") +
+                                                (twoD ? "[entity.rigid_body_2d]\nshape = \"circle\"\n"
+                                                      : "[entity.rigid_body]\nshape = \"sphere\"\n") +
+                                                "radius = 0.1\nmass = 1.0\nsleep = false\n"
+                                                "[[joint]]\ntype = \"spring\"\na = \"bob\"\npivot_b = [0, 5, 0]\n"
+                                                "stiffness = 100.0\n"));
+        std::vector<double> y;
+        for (int i = 0; i < 4 * 240; ++i) {
+            sim->runFrame();
+            const double h = twoD ? test::component<RigidBody2D>(*sim, "bob").position[1]
+                                  : test::component<RigidBody>(*sim, "bob").position.y;
+            y.push_back(h - (4.0 - m * kG / k)); // about the equilibrium
+        }
+        const std::vector<double> t = crossings(y, dt);
+        ASSERT_GE(t.size(), 3u) << (twoD ? "Box2D" : "Bullet");
+        const double measured = (t.back() - t.front()) / double(t.size() - 1);
+        const double expected = 2.0 * std::numbers::pi * std::sqrt(m / k);
+        EXPECT_NEAR(measured, expected, 0.02 * expected) << (twoD ? "Box2D" : "Bullet");
+        const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
+        EXPECT_NEAR(*hi, m * kG / k, 0.1 * m * kG / k) << "it turns back at its rest length";
+        EXPECT_NEAR(*lo, -m * kG / k, 0.1 * m * kG / k) << "and as far below the equilibrium";
+    }
+}
+
+TEST(RigidBodies, ASliderKeepsItsBodyOnItsAxisAndAWeldKeepsTheirPoses) {
+    for (bool twoD : {false, true}) {
+        const std::string body = twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.2, 0.2]\n"
+                                      : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.2, 0.2, 0.2]\n";
+        auto sim = test::simulate(scene(1.0 / 60.0,
+                                        "[[entity]]\nname = \"car\"\n[entity.transform]\nposition = [0, 2, 0]\n" +
+                                            body + "mass = 1.0\nsleep = false\n" +
+                                            "[[entity]]\nname = \"load\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
+                                            body + "mass = 1.0\nsleep = false\n" +
+                                            "[[joint]]\ntype = \"slider\"\na = \"car\"\naxis = [1, 1, 0]\n"
+                                            "[[joint]]\ntype = \"fixed\"\na = \"car\"\nb = \"load\"\n"
+                                            "pivot = [0.25, 2, 0]\n"));
+        runFrames(*sim, 60);
+        Vec3 car, load;
+        if (twoD) {
+            const RigidBody2D& c = test::component<RigidBody2D>(*sim, "car");
+            const RigidBody2D& l = test::component<RigidBody2D>(*sim, "load");
+            car = {c.position[0], c.position[1], 0};
+            load = {l.position[0], l.position[1], 0};
+        } else {
+            car = test::component<RigidBody>(*sim, "car").position;
+            load = test::component<RigidBody>(*sim, "load").position;
+        }
+        // gravity slides the pair down the 45-degree axis: x and y - 2 fall together
+        EXPECT_LT(car.y, 1.0) << (twoD ? "Box2D" : "Bullet");
+        EXPECT_NEAR(car.x, car.y - 2.0, 0.02) << (twoD ? "Box2D" : "Bullet") << ": on the axis";
+        EXPECT_NEAR(load.x - car.x, 0.5, 0.02) << (twoD ? "Box2D" : "Bullet") << ": welded";
+        EXPECT_NEAR(load.y - car.y, 0.0, 0.02) << (twoD ? "Box2D" : "Bullet") << ": welded";
+    }
 }
 
 const char* kPile = R"(
