@@ -345,7 +345,25 @@ std::vector<float> prismMesh(const std::vector<Vec2>& v) {
 /// Depth of a 2D body as drawn: a slab about the plane z = its entity's z.
 constexpr double kSlabHalfDepth = 0.25;
 
-void drawColliders(World& world, Renderer& r) {
+/// A body's pose as drawn: between its pose before and after the last fixed step, at `alpha`.
+void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat& orientation) {
+    const PoseHistory* before = alpha < 1.0 ? world.tryGet<PoseHistory>(e) : nullptr;
+    if (!before) {
+        return;
+    }
+    position = before->position + (position - before->position) * alpha;
+    // normalised linear blend of the quaternions, taken the short way round
+    const Quat& a = before->orientation;
+    const double sign = a.x * orientation.x + a.y * orientation.y + a.z * orientation.z + a.w * orientation.w < 0.0
+                            ? -1.0
+                            : 1.0;
+    Quat q{a.x + (sign * orientation.x - a.x) * alpha, a.y + (sign * orientation.y - a.y) * alpha,
+           a.z + (sign * orientation.z - a.z) * alpha, a.w + (sign * orientation.w - a.w) * alpha};
+    const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+    orientation = {q.x / n, q.y / n, q.z / n, q.w / n};
+}
+
+void drawColliders(World& world, Renderer& r, double alpha) {
     const GLint modelLoc = glGetUniformLocation(r.meshProgram, "uModel");
     const GLint colourLoc = glGetUniformLocation(r.meshProgram, "uColor");
     const GLint gridLoc = glGetUniformLocation(r.meshProgram, "uGrid");
@@ -356,7 +374,9 @@ void drawColliders(World& world, Renderer& r) {
         glBindVertexArray(m.vao);
         glDrawArrays(GL_TRIANGLES, 0, m.vertices);
     };
-    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+    world.view<const RigidBody>().each([&](Entity e, const RigidBody& body) {
+        RigidBody b = body; // the pose as drawn
+        drawnPose(world, e, alpha, b.position, b.orientation);
         const std::array<float, 4> stone{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
         // the body's frame: its axes in world space
         const Vec3 ax = rotate(b.orientation, {1, 0, 0}), ay = rotate(b.orientation, {0, 1, 0}),
@@ -393,11 +413,12 @@ void drawColliders(World& world, Renderer& r) {
             break;
         }
     });
-    world.view<const RigidBody2D, const Transform>().each([&](Entity, const RigidBody2D& b, const Transform& t) {
+    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b, const Transform& t) {
         const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
-        const Quat q = aboutZ(b.angle);
+        Quat q = aboutZ(b.angle);
+        Vec3 at{b.position[0], b.position[1], t.position.z};
+        drawnPose(world, e, alpha, at, q);
         const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
-        const Vec3 at{b.position[0], b.position[1], t.position.z};
         switch (b.shape) {
         case Shape2DKind::Box:
             draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour, false);
@@ -496,7 +517,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     glUniform3f(glGetUniformLocation(r.meshProgram, "uLightDir"), float(light.x), float(light.y),
                 float(light.z));
     glUniform3f(glGetUniformLocation(r.meshProgram, "uEye"), float(eye.x), float(eye.y), float(eye.z));
-    drawColliders(world, r);
+    drawColliders(world, r, ctx.alpha);
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         if (!net.triangles.empty()) {
@@ -633,6 +654,23 @@ void rememberPositions(World& world, const StepContext&) {
             h->previous.assign(net.x.begin(), net.x.end());
         } else {
             world.commands().emplace(e, RenderHistory{net.x});
+        }
+    });
+    auto remember = [&](Entity e, const PoseHistory& pose) {
+        if (PoseHistory* h = world.tryGet<PoseHistory>(e)) {
+            *h = pose;
+        } else {
+            world.commands().emplace(e, pose);
+        }
+    };
+    world.view<const RigidBody>().each([&](Entity e, const RigidBody& b) {
+        if (b.dynamic()) {
+            remember(e, {b.position, b.orientation});
+        }
+    });
+    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b, const Transform& t) {
+        if (b.dynamic()) {
+            remember(e, {{b.position[0], b.position[1], t.position.z}, aboutZ(b.angle)});
         }
     });
 }

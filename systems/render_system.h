@@ -1,12 +1,14 @@
 #pragma once
 // The renderer: a frame-phase system that draws the world headlessly (engine/gl_context.h) and writes PNG
 // frames. It only reads components, so rendering never changes the simulation or its hash.
-// Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, SpringNetwork,
-// ParticleEmitter, RenderHistory. Writes: RenderOutput (the files written). Phase: frame; and, first in the
-// fixed phase while rendering, `render_history`, which keeps each spring network's positions before the
-// step (RenderHistory), so that a frame falling between two steps is drawn between them (StepContext::alpha).
+// Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, RigidBody2D, SpringNetwork,
+// ParticleEmitter, RenderHistory, PoseHistory. Writes: RenderOutput (the files written). Phase: frame;
+// and, first in the fixed phase while rendering, `render_history`, which keeps each spring network's
+// positions and each moving body's pose before the step (RenderHistory, PoseHistory), so that a frame
+// falling between two steps is drawn between them (StepContext::alpha).
 //
-// What it draws: static colliders as lit meshes (a plane as a gridded ground), cloth and soft bodies as
+// What it draws: rigid bodies as lit meshes in their pose (a plane as a gridded ground; 2D bodies as slabs
+// half a metre deep about their entity's z; hulls and meshes flat-shaded), cloth and soft bodies as
 // lit surfaces with per-vertex normals (cloth two-sided), other spring networks (springs, ropes) as lines
 // with their masses as small lit balls (instanced), and particles as round, blended camera-facing quads
 // (instanced) sized in metres and coloured over their life. The key light comes from above and behind the

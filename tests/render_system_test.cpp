@@ -4,6 +4,7 @@
 
 #include "engine/gl_context.h"
 #include "components/particles.h"
+#include "components/rigid_body.h"
 #include "components/spring_network.h"
 #include "engine/render_output.h"
 #include "engine/simulation.h"
@@ -199,6 +200,26 @@ masses = [ { x = [-1.5, 0.0, 0.0], m = 1.0, v = [60.0, 0.0, 0.0] } ]
     for (double alpha : {0.0, 0.25, 0.5, 1.0}) {
         const double x = -1.5 + alpha * 1.0;
         EXPECT_NEAR(centroidX(redrawAt(*sim, alpha)), projectedX(x), 1.5) << "alpha " << alpha;
+    }
+}
+
+TEST(RenderSystem, ARigidBodyIsDrawnBetweenTheLastTwoStepsAtAlpha) {
+    auto sim = renderedSimulation(std::string(kCamera) + R"(
+[[entity]]
+name = "ball"
+[entity.transform]
+position = [-1.5, 0.0, 0.0]
+[entity.rigid_body]
+shape = "sphere"
+radius = 0.3
+mass = 1.0
+linear_velocity = [60.0, 0.0, 0.0]
+color = [1.0, 0.0, 0.0]
+)");
+    sim->runFrame();
+    ASSERT_NEAR(test::component<RigidBody>(*sim, "ball").position.x, -0.5, 1e-5);
+    for (double alpha : {0.0, 0.5, 1.0}) {
+        EXPECT_NEAR(centroidX(redrawAt(*sim, alpha)), projectedX(-1.5 + alpha), 1.5) << "alpha " << alpha;
     }
 }
 
