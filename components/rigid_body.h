@@ -26,7 +26,9 @@ struct ShapeMesh {
     std::vector<Vec3> vertices;                           ///< m
     std::vector<std::array<std::uint32_t, 3>> triangles;  ///< counter-clockwise seen from outside
     std::vector<Vec3> faceNormals;                        ///< per triangle, unit, outward
+    std::vector<int> faceLines;                           ///< per triangle, its line in the file
     Vec3 lo, hi;                                          ///< bounds, m
+    Vec3 centre;                                          ///< convex: the file's point now at the origin
 };
 
 /// Shape, material, pose and velocities of a rigid body (3D, Bullet).
@@ -49,6 +51,7 @@ struct RigidBody {
     Vec3 linearVelocity;    ///< m/s
     Vec3 angularVelocity;   ///< rad/s, world axes
     bool sleeping = false;  ///< resting, not simulated until touched
+    bool frozen = false;    ///< it blew up: kept where it was last finite, no longer simulated
 
     // bridge
     std::int32_t bodyId = -1; ///< the engine's body; -1 until the bridge has made it

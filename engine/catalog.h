@@ -51,7 +51,8 @@ struct EventAction {
 using EntityLookup = std::function<Entity(TableReader& reader, std::string_view key, bool required)>;
 
 /// Reads one [[joint]] table after every entity exists, and makes what it describes.
-using JointLoader = std::function<void(TableReader& reader, World& world, const EntityLookup& lookup)>;
+using JointLoader =
+    std::function<void(TableReader& reader, World& world, const SceneDef& scene, const EntityLookup& lookup)>;
 
 /// A system and the phase it runs in; systems of a phase run in registration order.
 struct SystemEntry {

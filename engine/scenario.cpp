@@ -366,8 +366,8 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
 
 // ---- joints
 
-void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& catalog, World& world,
-                const std::map<std::string, Entity>& byName) {
+void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& catalog, const SceneDef& scene,
+                World& world, const std::map<std::string, Entity>& byName) {
     const toml::node* node = root.get("joint");
     if (!node) {
         return;
@@ -400,7 +400,7 @@ void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& 
     };
     for (const toml::node& item : *list) {
         TableReader r(*item.as_table(), "[[joint]]", ctx);
-        catalog.jointLoader()(r, world, lookup);
+        catalog.jointLoader()(r, world, scene, lookup);
         r.finish();
     }
 }
@@ -602,7 +602,7 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
     readSections(root, ctx, sc.scene);
     std::map<std::string, Entity> byName;
     readEntities(root, ctx, catalog, sc.scene, world, byName);
-    readJoints(root, ctx, catalog, world, byName);
+    readJoints(root, ctx, catalog, sc.scene, world, byName);
     sc.events = readEvents(root, ctx, catalog, sc.scene, world, byName);
     return sc;
 }

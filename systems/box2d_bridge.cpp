@@ -140,6 +140,7 @@ std::int32_t addBody(Box2DWorld::Impl& impl, Entity e, const RigidBody2D& rb) {
     return take(impl.bodies, impl.freeBodies, BodySlot{e, body});
 }
 
+/// The Box2D joint for j between bodies a and b (Box2D's order: the caller passes the joint's b first).
 b2Joint* makeJoint(Box2DWorld::Impl& impl, const Joint& j, b2Body* a, b2Body* b) {
     switch (j.kind) {
     case JointKind::Hinge:
@@ -169,7 +170,7 @@ b2Joint* makeJoint(Box2DWorld::Impl& impl, const Joint& j, b2Body* a, b2Body* b)
     }
     case JointKind::Spring: {
         b2DistanceJointDef def;
-        def.Initialize(a, b, b2xy(j.pivot), b2xy(j.pivotB));
+        def.Initialize(a, b, b2xy(j.pivotB), b2xy(j.pivot)); // a is the joint's b, b its a: see the caller
         def.length = float(j.rest);
         def.minLength = 0.0f;
         def.maxLength = b2_maxFloat;
@@ -255,15 +256,21 @@ void box2dSyncIn(World& world, const StepContext&) {
     });
 
     world.view<Joint>().each([&](Entity e, Joint& j) {
-        if (!j.twoD || j.constraintId >= 0) {
+        if (!j.twoD) {
             return;
         }
         RigidBody2D* a = jointBody(world, j.a);
         RigidBody2D* b = j.b == kNullEntity ? nullptr : jointBody(world, j.b);
         if (!a || (j.b != kNullEntity && !b)) {
+            j.constraintId = -1; // its joint went with the body, above
             return;
         }
-        b2Joint* joint = makeJoint(impl, j, impl.body(a->bodyId), b ? impl.body(b->bodyId) : impl.ground);
+        if (j.constraintId >= 0) {
+            return;
+        }
+        // Box2D measures a joint's angle and travel as its second body's relative to its first: b (or the
+        // ground) first, so that limits are a's turn or travel relative to b, as in the Bullet bridge
+        b2Joint* joint = makeJoint(impl, j, b ? impl.body(b->bodyId) : impl.ground, impl.body(a->bodyId));
         j.constraintId = take(impl.joints, impl.freeJoints, JointSlot{e, joint});
     });
 }

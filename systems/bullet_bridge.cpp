@@ -1,8 +1,10 @@
 #include "systems/bullet_bridge.h"
 
 #include "components/joint.h"
+#include "components/name.h"
 #include "components/rigid_body.h"
 #include "components/transform.h"
+#include "engine/run_report.h"
 
 #include <btBulletDynamicsCommon.h>
 
@@ -24,6 +26,9 @@ btQuaternion bt(const Quat& q) {
 Quat fromBt(const btQuaternion& q) {
     return {double(q.x()), double(q.y()), double(q.z()), double(q.w())};
 }
+
+/// The margin Bullet keeps round a convex hull, m (small: GJK wants some).
+constexpr double kHullMargin = 0.005;
 
 struct BodySlot {
     Entity entity;
@@ -72,7 +77,27 @@ struct BulletWorld::Impl {
     void removeConstraint(std::int32_t id);
 };
 
+namespace {
+
+// How two touching bodies' materials combine, as Box2D does it and as our own springs and particles do
+// (systems/collision_system.cpp): friction the geometric mean, restitution the larger. Bullet's own rules
+// (the product of both) would make any body bounce off the default ground as if its restitution were 0.
+btScalar combinedFriction(const btCollisionObject* a, const btCollisionObject* b) {
+    return btSqrt(a->getFriction() * b->getFriction());
+}
+btScalar combinedRestitution(const btCollisionObject* a, const btCollisionObject* b) {
+    return btMax(a->getRestitution(), b->getRestitution());
+}
+
+} // namespace
+
+void setBulletMaterialRules() {
+    gCalculateCombinedFrictionCallback = combinedFriction;
+    gCalculateCombinedRestitutionCallback = combinedRestitution;
+}
+
 BulletWorld::BulletWorld(const SceneDef& scene) : m_impl(std::make_unique<Impl>()) {
+    setBulletMaterialRules();
     m_impl->world.setGravity(btVector3(btScalar(scene.gravity[0]), btScalar(scene.gravity[1]),
                                        btScalar(scene.gravity[2])));
     m_impl->world.getSolverInfo().m_numIterations = scene.solverIterations;
@@ -112,6 +137,9 @@ std::int32_t BulletWorld::Impl::addBody(Entity e, const RigidBody& rb) {
         for (const Vec3& p : rb.mesh->vertices) {
             hull->addPoint(bt(p), false);
         }
+        // Bullet pads a hull by a margin outside its points (0.04 m by default): rocks would rest that far
+        // above the ground and apart, while they are drawn, and springs collide, without it
+        hull->setMargin(btScalar(kHullMargin));
         hull->recalcLocalAabb();
         hull->optimizeConvexHull();
         // no initializePolyhedralFeatures(): its clipping contacts cost the avalanche 4.2-5.0 ms a frame
@@ -167,14 +195,22 @@ void BulletWorld::Impl::removeBody(std::int32_t id) {
 
 namespace {
 
-/// A frame at `pivot` (in a body's frame) whose x axis is `axis` (the frame Bullet's slider slides along).
-btTransform frameAlong(const btVector3& pivot, const btVector3& axis) {
-    return btTransform(shortestArcQuat(btVector3(1, 0, 0), axis.normalized()), pivot);
-}
-
 /// A body's frame as Bullet has it: for the world, the identity.
 btTransform frameOf(const RigidBody* b) {
     return b ? btTransform(bt(b->orientation), bt(b->position)) : btTransform::getIdentity();
+}
+
+/// The joint's frame in world space at the start: at the pivot, its z along the axis (hinge) or its x along
+/// it (slider). Both bodies' frames are made from this one, so the joint starts at zero, untwisted.
+btTransform jointFrame(const Joint& j) {
+    const btVector3 axis = bt(j.axis).normalized();
+    btQuaternion turn(0, 0, 0, 1);
+    if (j.kind == JointKind::Hinge) {
+        turn = shortestArcQuat(btVector3(0, 0, 1), axis);
+    } else if (j.kind == JointKind::Slider) {
+        turn = shortestArcQuat(btVector3(1, 0, 0), axis);
+    }
+    return btTransform(turn, bt(j.pivot));
 }
 
 } // namespace
@@ -182,13 +218,13 @@ btTransform frameOf(const RigidBody* b) {
 std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b) {
     btRigidBody& ra = *body(a.bodyId);
     btRigidBody& rb = b ? *body(b->bodyId) : btTypedConstraint::getFixedBody();
-    const btTransform ta = frameOf(&a).inverse(), tb = frameOf(b).inverse();
-    const btVector3 pivotA = ta * bt(j.pivot), pivotB = tb * bt(j.pivot);
-    const btVector3 axisA = ta.getBasis() * bt(j.axis), axisB = tb.getBasis() * bt(j.axis);
+    const btTransform shared = jointFrame(j);
+    const btTransform inA = frameOf(&a).inverse() * shared, inB = frameOf(b).inverse() * shared;
     std::unique_ptr<btTypedConstraint> c;
     switch (j.kind) {
     case JointKind::Hinge: {
-        auto hinge = std::make_unique<btHingeConstraint>(ra, rb, pivotA, pivotB, axisA, axisB);
+        // Bullet's hinge angle is a's turn relative to b about the axis: the sign the limits are given in
+        auto hinge = std::make_unique<btHingeConstraint>(ra, rb, inA, inB);
         if (j.limited) {
             hinge->setLimit(btScalar(j.lower), btScalar(j.upper));
         }
@@ -196,15 +232,15 @@ std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j
         break;
     }
     case JointKind::Point:
-        c = std::make_unique<btPoint2PointConstraint>(ra, rb, pivotA, pivotB);
+        c = std::make_unique<btPoint2PointConstraint>(ra, rb, inA.getOrigin(), inB.getOrigin());
         break;
     case JointKind::Fixed:
-        c = std::make_unique<btFixedConstraint>(ra, rb, btTransform(ta.getRotation(), pivotA),
-                                                btTransform(tb.getRotation(), pivotB));
+        c = std::make_unique<btFixedConstraint>(ra, rb, inA, inB);
         break;
     case JointKind::Slider: {
-        auto slider = std::make_unique<btSliderConstraint>(ra, rb, frameAlong(pivotA, axisA),
-                                                           frameAlong(pivotB, axisB), true);
+        // Bullet's slider position is its second body's travel along the first's frame: b first, so that
+        // the limits are a's travel relative to b
+        auto slider = std::make_unique<btSliderConstraint>(rb, ra, inB, inA, true);
         if (j.limited) {
             slider->setLowerLinLimit(btScalar(j.lower));
             slider->setUpperLinLimit(btScalar(j.upper));
@@ -364,21 +400,34 @@ void bulletStep(World& world, const StepContext& ctx) {
     }
 }
 
-void bulletSyncOut(World& world, const StepContext&) {
+void bulletSyncOut(World& world, const StepContext& ctx) {
     BulletWorld* bw = world.tryResource<BulletWorld>();
     if (!bw) {
         return;
     }
     BulletWorld::Impl& impl = bw->impl();
-    world.view<RigidBody, Transform>().each([&](Entity, RigidBody& b, Transform& t) {
-        if (b.bodyId < 0 || !b.dynamic()) {
+    world.view<RigidBody, Transform>().each([&](Entity e, RigidBody& b, Transform& t) {
+        if (b.bodyId < 0 || !b.dynamic() || b.frozen) {
             return;
         }
-        const btRigidBody& body = *impl.body(b.bodyId);
+        btRigidBody& body = *impl.body(b.bodyId);
         const btTransform& x = body.getWorldTransform();
-        b.position = fromBt(x.getOrigin());
+        const Vec3 position = fromBt(x.getOrigin()), velocity = fromBt(body.getLinearVelocity());
+        if (!isFinite(position) || !isFinite(velocity) || length(velocity) > 1e4) {
+            // a joint spring stiffer than the step can take, say: keep the last good pose, stop the body
+            // and say so once; the rest of the scene runs on
+            b.frozen = true;
+            body.setActivationState(DISABLE_SIMULATION);
+            const Name* name = world.tryGet<Name>(e);
+            world.resource<RunReport>().failures.push_back(
+                "rigid body '" + (name ? name->value : std::string("?")) + "' blew up at frame " +
+                std::to_string(ctx.frame) + " (its state became non-finite or faster than 10 km/s); it is " +
+                "frozen from here on. Remedy: a smaller step (--set scene.dt=...) or softer joint springs");
+            return;
+        }
+        b.position = position;
         b.orientation = fromBt(x.getRotation());
-        b.linearVelocity = fromBt(body.getLinearVelocity());
+        b.linearVelocity = velocity;
         b.angularVelocity = fromBt(body.getAngularVelocity());
         b.sleeping = body.getActivationState() == ISLAND_SLEEPING;
         t.position = b.position;

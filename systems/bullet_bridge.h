@@ -42,6 +42,10 @@ private:
     std::unique_ptr<Impl> m_impl;
 };
 
+/// Sets Bullet's process-wide rules for touching materials to Tumble's: friction the geometric mean,
+/// restitution the larger (as Box2D and our own collisions have them). Every BulletWorld sets them.
+void setBulletMaterialRules();
+
 void bulletSyncIn(World& world, const StepContext& ctx);
 void bulletStep(World& world, const StepContext& ctx);
 void bulletSyncOut(World& world, const StepContext& ctx);

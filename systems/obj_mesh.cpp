@@ -65,7 +65,13 @@ std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std:
                 fail("a face needs at least three vertices");
             }
             for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
-                mesh->triangles.push_back({corners[0], corners[k], corners[k + 1]});
+                const std::array<std::uint32_t, 3> t{corners[0], corners[k], corners[k + 1]};
+                const auto& v = mesh->vertices;
+                if (length(cross(v[t[1]] - v[t[0]], v[t[2]] - v[t[0]])) <= 1e-12) {
+                    fail("a face with no area (repeated or collinear vertices)");
+                }
+                mesh->triangles.push_back(t);
+                mesh->faceLines.push_back(lineNo);
             }
         }
     }
@@ -79,10 +85,48 @@ std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std:
     }
     for (const auto& t : mesh->triangles) {
         const Vec3 n = cross(mesh->vertices[t[1]] - mesh->vertices[t[0]], mesh->vertices[t[2]] - mesh->vertices[t[0]]);
-        const double len = length(n);
-        mesh->faceNormals.push_back(len > 0.0 ? n * (1.0 / len) : Vec3{0.0, 1.0, 0.0});
+        mesh->faceNormals.push_back(n * (1.0 / length(n)));
     }
     return mesh;
+}
+
+std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
+    auto fail = [&](int line, const std::string& what) {
+        throw std::runtime_error(file.path + (line ? ":" + std::to_string(line) : "") + ": " + what);
+    };
+    // closed and wound outward: the signed volume of the tetrahedra from the origin is positive; its
+    // centroid is the body's centre of mass
+    double volume = 0.0;
+    Vec3 moment;
+    for (const auto& t : file.triangles) {
+        const Vec3 &a = file.vertices[t[0]], &b = file.vertices[t[1]], &c = file.vertices[t[2]];
+        const double v = dot(a, cross(b, c)) / 6.0;
+        volume += v;
+        moment += (a + b + c) * (v / 4.0);
+    }
+    if (volume <= 0.0) {
+        fail(0, "a convex shape must be a closed hull with its faces counter-clockwise seen from outside "
+                "(its volume comes out " + std::to_string(volume) + " m^3)");
+    }
+    const Vec3 centre = moment * (1.0 / volume);
+    const double size = length(file.hi - file.lo);
+    for (std::size_t f = 0; f < file.triangles.size(); ++f) {
+        const Vec3& on = file.vertices[file.triangles[f][0]];
+        for (const Vec3& p : file.vertices) {
+            if (dot(p - on, file.faceNormals[f]) > 1e-6 * size) {
+                fail(file.faceLines[f], "this face has points of the shape in front of it: a convex shape must "
+                                        "be its own convex hull, faces counter-clockwise seen from outside");
+            }
+        }
+    }
+    auto hull = std::make_shared<ShapeMesh>(file);
+    for (Vec3& p : hull->vertices) {
+        p -= centre;
+    }
+    hull->lo -= centre;
+    hull->hi -= centre;
+    hull->centre = centre;
+    return hull;
 }
 
 std::string findMeshFile(const std::string& name, const std::string& scenarioFile) {

@@ -14,6 +14,11 @@ namespace tumble {
 /// Reads an OBJ file. Throws std::runtime_error naming file:line and the problem.
 std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std::string& displayName);
 
+/// A convex body's mesh from a file's: checked to be a closed convex hull wound outward (else
+/// std::runtime_error naming the file and the face's line), moved so that its centre of mass (uniform
+/// density) is at the origin, with `centre` saying where that was in the file's frame.
+std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file);
+
 /// Where a mesh named in a scenario is: an absolute path as it is; otherwise next to the scenario file,
 /// else under the project's root (the folder that holds assets/). Empty when neither exists.
 std::string findMeshFile(const std::string& name, const std::string& scenarioFile);

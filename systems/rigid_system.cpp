@@ -20,10 +20,10 @@ constexpr double kHuge = 1e9;
 
 /// Meshes already read, by file, so that 300 rocks share one.
 struct MeshCache {
-    std::map<std::string, std::shared_ptr<const ShapeMesh>> byFile;
+    std::map<std::string, std::shared_ptr<const ShapeMesh>> byFile; ///< "convex:" or "mesh:" + file
 };
 
-std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world) {
+std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world, bool convex) {
     const std::string name = r.requiredString("mesh");
     const std::string file = findMeshFile(name, r.context().file);
     if (file.empty()) {
@@ -33,16 +33,17 @@ std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world) {
     if (!cache) {
         cache = &world.setResource<MeshCache>();
     }
-    auto& slot = cache->byFile[file];
-    if (!slot) {
-        try {
-            slot = readObjMesh(file, name);
-        } catch (const std::exception& e) {
-            cache->byFile.erase(file);
-            r.fail("mesh", e.what());
-        }
+    const std::string key = (convex ? "convex:" : "mesh:") + file;
+    auto found = cache->byFile.find(key);
+    if (found != cache->byFile.end()) {
+        return found->second;
     }
-    return slot;
+    try {
+        auto mesh = readObjMesh(file, name);
+        return cache->byFile[key] = convex ? convexHullMesh(*mesh) : mesh;
+    } catch (const std::exception& e) {
+        r.fail("mesh", e.what());
+    }
 }
 
 Vec3 vec(const std::array<double, 3>& a) {
@@ -50,6 +51,9 @@ Vec3 vec(const std::array<double, 3>& a) {
 }
 
 void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    if (world.has<RigidBody2D>(entity)) {
+        r.fail("shape", "an entity is a rigid_body (3D) or a rigid_body_2d, not both");
+    }
     RigidBody b;
     const std::string shape =
         r.choice("shape", "box", {"plane", "box", "sphere", "capsule", "cylinder", "convex", "mesh"});
@@ -77,7 +81,7 @@ void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&)
         b.height = r.number("height", 1.0, b.shape == ShapeKind::Cylinder ? 1e-3 : 0.0, kHuge);
     }
     if (b.shape == ShapeKind::Convex || b.shape == ShapeKind::Mesh) {
-        b.mesh = loadMesh(r, world);
+        b.mesh = loadMesh(r, world, b.shape == ShapeKind::Convex);
     }
     b.mass = r.number("mass", 0.0, 0.0, 1e9);
     if (b.mass > 0.0 && (b.shape == ShapeKind::Plane || b.shape == ShapeKind::Mesh)) {
@@ -105,7 +109,8 @@ void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&)
     const bool plane = b.shape == ShapeKind::Plane;
     b.color = vec(
         r.vector<3>("color", plane ? std::array{0.55, 0.57, 0.52} : std::array{0.62, 0.60, 0.56}, 0.0, 1.0));
-    b.position = world.get<Transform>(entity).position;
+    // the entity's position places the shape as its file has it; the body's centre is its centre of mass
+    b.position = world.get<Transform>(entity).position + (b.mesh ? rotate(b.orientation, b.mesh->centre) : Vec3{});
     world.emplace<RigidBody>(entity, b);
 }
 
@@ -154,6 +159,9 @@ std::vector<Vec2> readPolygon(TableReader& r) {
 }
 
 void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    if (world.has<RigidBody>(entity)) {
+        r.fail("shape", "an entity is a rigid_body (3D) or a rigid_body_2d, not both");
+    }
     RigidBody2D b;
     const std::string shape = r.choice("shape", "box", {"box", "circle", "polygon", "edge"});
     b.shape = shape == "box"      ? Shape2DKind::Box
@@ -217,10 +225,12 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
     if (!body) {
         r.fail("b", "an anchor's 'b' must name a rigid_body (3D) that holds the mass");
     }
-    for (const SpringAnchor& a : net->anchors) {
-        if (a.mass == mass) {
-            r.fail("mass", "mass " + std::to_string(mass) + " is anchored twice");
-        }
+    if (net->pinned[mass]) {
+        r.fail("mass", "mass " + std::to_string(mass) + " is already pinned" +
+                           (std::any_of(net->anchors.begin(), net->anchors.end(),
+                                        [&](const SpringAnchor& a) { return a.mass == mass; })
+                                ? " (anchored twice)"
+                                : "; a held mass must be free"));
     }
     const Vec3 at = net->x[mass];
     const Vec3 pivot = vec(r.vector<3>("pivot", {at.x, at.y, at.z}, -kHuge, kHuge));
@@ -228,7 +238,7 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
     net->pinned[mass] = 1;
 }
 
-void loadJoint(TableReader& r, World& world, const EntityLookup& lookup) {
+void loadJoint(TableReader& r, World& world, const SceneDef& scene, const EntityLookup& lookup) {
     Joint j;
     const std::string type =
         r.choice("type", "point", {"hinge", "point", "fixed", "slider", "spring", "anchor"});
@@ -269,6 +279,9 @@ void loadJoint(TableReader& r, World& world, const EntityLookup& lookup) {
     j.pivot = vec(r.vector<3>("pivot", {aCentre.x, aCentre.y, aCentre.z}, -kHuge, kHuge));
     if (j.kind == JointKind::Hinge || j.kind == JointKind::Slider) {
         const Vec3 axis = vec(r.vector<3>("axis", {0.0, 0.0, 1.0}, -kHuge, kHuge));
+        if (j.twoD && j.kind == JointKind::Hinge && (axis.x != 0.0 || axis.y != 0.0 || axis.z <= 0.0)) {
+            r.fail("axis", "a 2D hinge turns about z: its 'axis' can only be [0, 0, 1] (or left out)");
+        }
         const double len = j.twoD && j.kind == JointKind::Slider ? std::hypot(axis.x, axis.y) : length(axis);
         if (len < 1e-9) {
             r.fail("axis", j.twoD ? "a 2D slider's 'axis' must have an x or y part" : "'axis' must not be zero");
@@ -292,7 +305,23 @@ void loadJoint(TableReader& r, World& world, const EntityLookup& lookup) {
         j.pivotB = vec(r.vector<3>("pivot_b", {bEnd.x, bEnd.y, bEnd.z}, -kHuge, kHuge));
         j.stiffness = r.requiredNumber("stiffness", 0.0, 1e9);
         j.damping = r.number("damping", 0.0, 0.0, 1e9);
-        j.rest = r.number("rest", length(j.pivotB - j.pivot), 0.0, kHuge);
+        // Box2D measures in the plane: a 2D spring's length leaves out z
+        const Vec3 span = j.pivotB - j.pivot;
+        j.rest = r.number("rest", j.twoD ? std::hypot(span.x, span.y) : length(span), 0.0, kHuge);
+        if (!j.twoD) {
+            // Bullet takes the spring as a force, explicitly: stable while the step is short beside the
+            // period of the lighter end, omega dt < 2; refuse what would blow up (with a factor of 2 to spare)
+            const double mass = std::min(a3->dynamic() ? a3->mass : 1e300,
+                                         b3 && b3->dynamic() ? b3->mass : 1e300);
+            const double omegaDt = std::sqrt(j.stiffness / mass) * scene.dt;
+            if (omegaDt > 1.0 || j.damping * scene.dt / mass > 1.0) {
+                r.fail("stiffness", "this spring is too stiff (or too damped) for the step: with " +
+                                        std::to_string(mass) + " kg at its lighter end and dt = " +
+                                        std::to_string(scene.dt) +
+                                        " s it would blow up (a 3D spring joint is a force taken explicitly, "
+                                        "stable while sqrt(k/m) dt < 1 here); lower 'stiffness' or the step");
+            }
+        }
     } else {
         for (const char* key : {"pivot_b", "stiffness", "damping", "rest"}) {
             if (r.has(key)) {
@@ -323,6 +352,7 @@ void hashRigid(const RigidBody& b, Hasher& h) {
     h.add(b.linearVelocity);
     h.add(b.angularVelocity);
     h.add(b.sleeping);
+    h.add(b.frozen);
 }
 
 void dumpRigid2D(const RigidBody2D& b, JsonWriter& w) {

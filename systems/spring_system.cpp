@@ -306,6 +306,22 @@ std::optional<std::string> needsIndices(const World& world, Entity e, const Even
     return std::nullopt;
 }
 
+/// unpin: the indices of masses, none of them held by an anchor (its body holds it, not a pin).
+std::optional<std::string> needsFreeableIndices(const World& world, Entity e, const EventDef& ev) {
+    if (auto problem = needsIndices(world, e, ev)) {
+        return problem;
+    }
+    for (const SpringAnchor& a : world.get<SpringNetwork>(e).anchors) {
+        for (double d : ev.value) {
+            if (static_cast<std::uint32_t>(d) == a.mass) {
+                return "mass " + std::to_string(a.mass) + " is held by a rigid body ([[joint]] type \"anchor\"), " +
+                       "not by a pin";
+            }
+        }
+    }
+    return std::nullopt;
+}
+
 bool hasSprings(const World& w, Entity e) {
     return w.has<SpringNetwork>(e);
 }
@@ -490,7 +506,7 @@ void registerSpringSystem(Catalog& catalog) {
             net.v[static_cast<std::size_t>(d)] = {};
         }
     });
-    addNetworkAction(catalog, "unpin", needsIndices, [](SpringNetwork& net, const EventDef& ev) {
+    addNetworkAction(catalog, "unpin", needsFreeableIndices, [](SpringNetwork& net, const EventDef& ev) {
         for (double d : ev.value) {
             net.pinned[static_cast<std::size_t>(d)] = 0;
         }

@@ -11,6 +11,7 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "engine/simulation.h"
+#include "systems/bullet_bridge.h"
 #include "systems/builtin.h"
 
 #include <benchmark/benchmark.h>
@@ -68,6 +69,7 @@ struct RawBullet {
     std::vector<std::unique_ptr<btRigidBody>> bodies;
 
     RawBullet() {
+        setBulletMaterialRules(); // the same rules as the bridge's, or it would be another simulation
         world.setGravity(btVector3(0, btScalar(-9.81), 0));
         add(&plane, 0, btVector3(0, 0, 0));
         for (int i = 0; i < 10; ++i) {
