@@ -1,12 +1,15 @@
 #include "engine/cli.h"
 
+#include "engine/dump.h"
 #include "engine/progress.h"
+#include "engine/replay.h"
 #include "engine/render_output.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
 #include "engine/video_encoder.h"
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -89,6 +92,21 @@ struct RunOptions {
     std::string video;
     bool quiet = false;
     bool progress = false;
+    std::string record;                    ///< --record FILE
+    std::string input;                     ///< --input FILE (JSON Lines of timed actions)
+    std::optional<std::int64_t> snapshotAt; ///< --snapshot-at N
+    std::string from;                      ///< --from SNAPSHOT
+    bool verify = false;                   ///< replay --verify
+};
+
+/// Where a run's scenario and events come from, and what it holds itself to.
+struct Source {
+    std::string path;                ///< the scenario's path (for messages)
+    std::string text;                ///< the scenario
+    std::vector<std::string> sets;   ///< --set overrides
+    std::shared_ptr<const ReplayFile> replay; ///< replay: the recorded events and hashes
+    bool verify = false;             ///< compare every frame's hash with the replay's
+    std::uint64_t resume = 0;        ///< --from: frames re-simulated (and checked) before the run proper
 };
 
 int commandList() {
@@ -124,12 +142,222 @@ int commandCheck(const Catalog& catalog, const RunOptions& o) {
     return kExitOk;
 }
 
-int commandRun(const Catalog& catalog, const RunOptions& o) {
-    const std::string path = resolveScenario(o.scenario);
-    Simulation sim(catalog, path, readScenarioFile(path), o.sets);
+/// Reads --input: one JSON object a line, {"frame": N or "t": seconds, "entity", "action", "value",
+/// "position", "radius", "amount"}, each resolved as a scenario event is. Throws ScenarioError (file:line).
+std::vector<EventDef> readInputEvents(const std::string& path, const Simulation& sim) {
+    std::ifstream in(path);
+    if (!in) {
+        throw ScenarioError(path, 0, 0, "cannot read the input file");
+    }
+    std::vector<EventDef> events;
+    std::string line;
+    int lineNo = 0;
+    while (std::getline(in, line)) {
+        ++lineNo;
+        auto fail = [&](const std::string& what) { throw ScenarioError(path, lineNo, 0, what); };
+        if (line.find_first_not_of(" \t\r") == std::string::npos) {
+            continue;
+        }
+        const nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+        if (j.is_discarded() || !j.is_object()) {
+            fail("not a JSON object (one action a line: {\"frame\": 120, \"entity\": ..., \"action\": ...})");
+        }
+        EventDef ev;
+        std::vector<std::string> present;
+        for (const auto& [key, value] : j.items()) {
+            const bool known = key == "frame" || key == "t" || key == "entity" || key == "action" ||
+                               key == "value" || key == "position" || key == "radius" || key == "amount";
+            if (!known) {
+                fail("unknown key '" + key + "'; an action has frame or t, entity, action, value, position, "
+                     "radius, amount");
+            }
+            if (key == "value" || key == "position" || key == "radius" || key == "amount") {
+                present.push_back(key);
+            }
+        }
+        if (j.contains("frame") == j.contains("t")) {
+            fail("an action needs exactly one of 'frame' and 't'");
+        }
+        auto number = [&](const nlohmann::json& v, const char* what) {
+            if (!v.is_number() || !std::isfinite(v.get<double>())) {
+                fail(std::string("'") + what + "' must be a finite number");
+            }
+            return v.get<double>();
+        };
+        const SceneDef& scene = sim.scene();
+        if (j.contains("frame")) {
+            const double f = number(j["frame"], "frame");
+            if (f < 0 || f != std::floor(f) || f > 1e9) {
+                fail("'frame' must be a whole number of frames, 0 or more");
+            }
+            ev.step = static_cast<std::uint64_t>(f) * static_cast<std::uint64_t>(scene.substeps);
+        } else {
+            const double t = number(j["t"], "t");
+            if (t < 0 || t > 1e9) {
+                fail("'t' must be a time in seconds, 0 or more");
+            }
+            ev.step = stepReaching(t, scene.dt);
+        }
+        for (const char* key : {"entity", "action"}) {
+            if (!j.contains(key) || !j[key].is_string()) {
+                fail(std::string("an action needs '") + key + "', a string");
+            }
+        }
+        ev.entity = j["entity"].get<std::string>();
+        ev.action = j["action"].get<std::string>();
+        if (j.contains("value")) {
+            if (j["value"].is_array()) {
+                if (j["value"].size() > 4096) {
+                    fail("'value' has too many numbers");
+                }
+                for (const auto& v : j["value"]) {
+                    ev.value.push_back(number(v, "value"));
+                }
+            } else {
+                ev.value.push_back(number(j["value"], "value"));
+            }
+        }
+        if (j.contains("position")) {
+            if (!j["position"].is_array() || j["position"].size() != 3) {
+                fail("'position' must be [x, y, z]");
+            }
+            for (std::size_t k = 0; k < 3; ++k) {
+                ev.position[k] = number(j["position"][k], "position");
+            }
+        }
+        if (j.contains("radius")) {
+            ev.radius = number(j["radius"], "radius");
+        }
+        if (j.contains("amount")) {
+            ev.amount = number(j["amount"], "amount");
+        }
+        if (auto problem = resolveEvent(sim.catalog(), sim.world(), ev, present)) {
+            fail(*problem);
+        }
+        events.push_back(std::move(ev));
+    }
+    std::stable_sort(events.begin(), events.end(),
+                     [](const EventDef& a, const EventDef& b) { return a.step < b.step; });
+    return events;
+}
+
+/// Names what differs between a recorded frame and the same frame replayed.
+std::string describeDivergence(std::uint64_t frame, const FrameRecord& recorded, std::uint64_t hash,
+                               const std::vector<EntityHash>& now) {
+    std::string where = "the replay diverged at frame " + std::to_string(frame) + ": ";
+    for (const EntityHash& r : recorded.entities) {
+        const auto found = std::find_if(now.begin(), now.end(), [&](const EntityHash& e) { return e.name == r.name; });
+        if (found == now.end()) {
+            return where + "entity '" + r.name + "' (" + r.kind + ") is in the recording but not in the replay";
+        }
+        if (found->hash != r.hash) {
+            return where + "entity '" + r.name + "' differs in its " + r.kind + " state (recorded " +
+                   hashHex(r.hash) + ", replayed " + hashHex(found->hash) + ")";
+        }
+    }
+    for (const EntityHash& e : now) {
+        if (std::none_of(recorded.entities.begin(), recorded.entities.end(),
+                         [&](const EntityHash& r) { return r.name == e.name; })) {
+            return where + "entity '" + e.name + "' (" + e.kind + ") is in the replay but not in the recording";
+        }
+    }
+    return where + "the state hash differs (recorded " + hashHex(recorded.hash) + ", replayed " + hashHex(hash) +
+           ") though every named entity matches: unnamed state (a joint, say) differs";
+}
+
+int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
+    Simulation sim(catalog, src.path, src.text, src.sets);
     const SceneDef& scene = sim.scene();
-    const std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
+    if (src.replay) {
+        // the recorded events, not the scenario's: they are what happened
+        std::vector<EventDef> events;
+        for (const FrameRecord& f : src.replay->frames) {
+            for (EventDef ev : f.events) {
+                std::vector<std::string> present;
+                if (auto problem = resolveEvent(catalog, sim.world(), ev, present)) {
+                    throw ReplayError(o.scenario, 0, "a recorded event does not fit its scenario: " + *problem);
+                }
+                events.push_back(std::move(ev));
+            }
+        }
+        if (src.resume > 0) {
+            // resuming: after the snapshot's frames the scenario's own events take over again
+            const std::uint64_t from = src.resume * static_cast<std::uint64_t>(scene.substeps);
+            for (const EventDef& ev : sim.scenario().events) {
+                if (ev.step >= from) {
+                    events.push_back(ev);
+                }
+            }
+        }
+        sim.setEvents(std::move(events));
+    }
+    if (!o.input.empty()) {
+        sim.addEvents(readInputEvents(o.input, sim));
+    }
+    std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
+    if (src.replay && src.resume == 0) {
+        // a replay plays what was recorded, or less
+        frames = std::min<std::uint64_t>(o.frames ? frames : src.replay->frames.size(), src.replay->frames.size());
+    }
+    frames = std::max(frames, src.resume);
     const std::string outDir = o.out.empty() ? "out/" + scene.name : o.out;
+    std::unique_ptr<ReplayWriter> recorder;
+    if (!o.record.empty()) {
+        recorder = std::make_unique<ReplayWriter>(
+            o.record, ReplayHeader{kReplayVersion, buildId(), src.path, src.text, src.sets});
+    }
+    std::vector<FrameRecord> history; // for --snapshot-at
+    const std::uint64_t snapshotAt = o.snapshotAt ? static_cast<std::uint64_t>(*o.snapshotAt) : 0;
+    std::vector<EntityHash> entities;
+    // after every frame: its hashes and events, recorded, checked, kept; false stops the run (diverged)
+    std::string diverged;
+    auto afterFrame = [&]() {
+        std::vector<EventDef> applied = sim.takeAppliedEvents();
+        if (!recorder && !src.replay && !o.snapshotAt) {
+            return true;
+        }
+        FrameRecord rec{std::move(applied), frameHashes(sim.world(), catalog, entities), entities};
+        const std::uint64_t f = sim.frame();
+        if (src.replay && (src.verify || f <= src.resume) && f <= src.replay->frames.size()) {
+            const FrameRecord& expected = src.replay->frames[f - 1];
+            if (expected.hash != rec.hash) {
+                diverged = describeDivergence(f, expected, rec.hash, rec.entities);
+                return false;
+            }
+        }
+        if (o.snapshotAt && f <= snapshotAt) {
+            history.push_back(rec);
+        }
+        if (recorder) {
+            recorder->frame(rec);
+        }
+        if (o.snapshotAt && f == snapshotAt) {
+            // the run so far, as a replay to resume from, and the whole state at this frame
+            const std::string base = outDir + "/snapshot_" + std::to_string(f);
+            fs::create_directories(outDir);
+            ReplayWriter snap(base + ".tumble", ReplayHeader{kReplayVersion, buildId(), src.path, src.text, src.sets});
+            for (const FrameRecord& h : history) {
+                snap.frame(h);
+            }
+            snap.finish();
+            std::string state;
+            sim.appendDump(state);
+            OutputFile dumpFile(base + ".jsonl");
+            dumpFile.write(state);
+            dumpFile.close();
+            history.clear();
+        }
+        return true;
+    };
+
+    // --from: the frames before the snapshot again, silently, each checked against the snapshot's hash
+    while (sim.frame() < src.resume) {
+        sim.runFrame();
+        if (!afterFrame()) {
+            std::fprintf(stderr, "tumble: cannot resume from %s: %s\n", o.from.c_str(), diverged.c_str());
+            return kExitDiverged;
+        }
+    }
 
     // open every output before doing any work, so a bad path costs nothing; the budget summary is always
     // written: to --profile, else into the output folder
@@ -190,6 +418,9 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
             break;
         }
         sim.runFrame();
+        if (!afterFrame()) {
+            break;
+        }
         // problems met during the run are said as they appear (the progress bar makes way)
         const RunReport& report = sim.world().resource<RunReport>();
         for (; reported < report.failures.size(); ++reported) {
@@ -214,6 +445,13 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
 
     // outputs
     std::vector<std::string> wrote;
+    if (recorder) {
+        recorder->finish();
+        wrote.push_back(recorder->path() + " (a replay of " + std::to_string(recorder->frames()) + " frames)");
+    }
+    if (o.snapshotAt && sim.frame() >= snapshotAt) {
+        wrote.push_back(outDir + "/snapshot_" + std::to_string(snapshotAt) + ".tumble (resume with run --from) and .jsonl (the state)");
+    }
     if (dump) {
         dump->close();
         wrote.push_back(dump->path());
@@ -255,6 +493,15 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
             std::fprintf(stderr, "wrote %s\n", w.c_str());
         }
     }
+    if (!diverged.empty()) {
+        std::fprintf(stderr, "tumble: %s\n", diverged.c_str());
+        return kExitDiverged;
+    }
+    if (src.verify) {
+        std::fprintf(stderr, "tumble: replay verified: %llu frames give the recorded state, bit for bit%s\n",
+                     static_cast<unsigned long long>(sim.frame()),
+                     src.replay->complete ? "" : " (as far as the file goes)");
+    }
     if (reported > 0) {
         std::fprintf(stderr, "tumble: the run finished with %zu failure(s), listed above\n", reported);
         return kExitFailure;
@@ -265,6 +512,65 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         return kExitInterrupted;
     }
     return kExitOk;
+}
+
+int commandRun(const Catalog& catalog, const RunOptions& o) {
+    Source src;
+    if (!o.from.empty()) {
+        if (!o.scenario.empty()) {
+            throw ScenarioError(o.from, 0, 0, "--from resumes the snapshot's own scenario: give no scenario with it");
+        }
+        auto snapshot = std::make_shared<const ReplayFile>(readReplay(o.from));
+        src.path = snapshot->header.scenarioPath;
+        src.text = snapshot->header.scenarioText;
+        src.sets = snapshot->header.overrides;
+        if (!o.sets.empty()) {
+            throw ScenarioError(o.from, 0, 0, "--set cannot change a snapshot's scenario");
+        }
+        if (!o.input.empty()) {
+            throw ScenarioError(o.from, 0, 0, "--input cannot add to a snapshot's recorded inputs");
+        }
+        // Bullet's and Box2D's contact caches and sleep timers are not theirs to give away, so a snapshot
+        // resumes by simulating its frames again (checked against its hashes), not by loading state
+        src.replay = snapshot;
+        src.resume = snapshot->frames.size();
+        return simulate(catalog, o, src);
+    }
+    if (o.scenario.empty()) {
+        throw ScenarioError("tumble run", 0, 0, "give a scenario (a .toml file or a demo name) or --from SNAPSHOT");
+    }
+    src.path = resolveScenario(o.scenario);
+    src.text = readScenarioFile(src.path);
+    src.sets = o.sets;
+    return simulate(catalog, o, src);
+}
+
+int commandReplay(const Catalog& catalog, const RunOptions& o) {
+    auto file = std::make_shared<const ReplayFile>(readReplay(o.scenario));
+    const ReplayFile& replay = *file;
+    if (!replay.complete) {
+        std::fprintf(stderr,
+                     "tumble: note: %s is cut short at byte %llu of %llu (a recording that was stopped); "
+                     "replaying its %zu whole frames\n",
+                     o.scenario.c_str(), static_cast<unsigned long long>(replay.validBytes),
+                     static_cast<unsigned long long>(replay.fileBytes), replay.frames.size());
+    }
+    if (replay.header.buildId != buildId()) {
+        std::fprintf(stderr, "tumble: note: recorded by build %s, replayed by build %s\n",
+                     replay.header.buildId.c_str(), buildId());
+    }
+    Source src;
+    src.path = replay.header.scenarioPath;
+    src.text = replay.header.scenarioText;
+    src.sets = replay.header.overrides;
+    src.replay = file;
+    src.verify = o.verify;
+    try {
+        return simulate(catalog, o, src);
+    } catch (const ScenarioError& e) {
+        // the scenario inside the replay: a damaged or foreign file, not the user's scenario
+        throw ReplayError(o.scenario, 0, std::string("its scenario does not load here: ") + e.what());
+    }
 }
 
 void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
@@ -329,41 +635,71 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
     addScenarioOptions(check, o);
     CLI::App* run =
         app.add_subcommand("run", "Simulate a scenario headlessly and write the outputs asked for");
-    addScenarioOptions(run, o);
-    run->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
-        ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
-    run->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
-    run->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
-    run->add_option("--video", o.video, "Encode the rendered frames to FILE (.mp4 or .gif) through ffmpeg")
-        ->type_name("FILE");
-    run->add_option(
-           "--png-every", o.pngEvery,
-           "Write frame_NNNNN.png into the output folder every K frames (0: the last frame only, the "
-           "default)")
-        ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)))
-        ->type_name("K");
-    run->add_option("--profile", o.profile,
-                    "Write the budget summary as JSON to FILE (default <out>/profile.json)")
-        ->type_name("FILE");
-    run->add_option("--trace", o.trace, "Write a Chrome trace-event JSON of every system's timing to FILE")
-        ->type_name("FILE");
-    CLI::Option* dumpOption =
-        run->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")
+    run->add_option("scenario", o.scenario, "A scenario file (.toml) or a demo name (see `tumble list`)");
+    run->add_option("--set", o.sets,
+                    "Override a scenario value, e.g. --set scene.dt=0.005 or --set bob.springs.stiffness=50 "
+                    "(repeatable)")
+        ->allow_extra_args(false)
+        ->type_name("KEY=VALUE");
+    CLI::App* replay = app.add_subcommand(
+        "replay", "Play a replay again (same outputs as run); --verify checks every frame's state hash");
+    replay->add_option("file", o.scenario, "A replay written by run --record")->required()->type_name("FILE");
+    replay->add_flag("--verify", o.verify,
+                     "Compare every frame's state with the recording; exit 4 naming the first frame and entity "
+                     "that differ");
+    for (CLI::App* cmd : {run, replay}) {
+        cmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames; a replay's own)")
+            ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
+        cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
+        cmd->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
+        cmd->add_option("--video", o.video, "Encode the rendered frames to FILE (.mp4 or .gif) through ffmpeg")
             ->type_name("FILE");
-    run->add_option("--dump-every", o.dumpEvery,
-                    "Dump every K frames, starting with the initial state (default: the last frame only)")
+        cmd->add_option(
+               "--png-every", o.pngEvery,
+               "Write frame_NNNNN.png into the output folder every K frames (0: the last frame only, the "
+               "default)")
+            ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)))
+            ->type_name("K");
+        cmd->add_option("--profile", o.profile,
+                        "Write the budget summary as JSON to FILE (default <out>/profile.json)")
+            ->type_name("FILE");
+        cmd->add_option("--trace", o.trace, "Write a Chrome trace-event JSON of every system's timing to FILE")
+            ->type_name("FILE");
+        CLI::Option* dumpOption =
+            cmd->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")
+                ->type_name("FILE");
+        cmd->add_option("--dump-every", o.dumpEvery,
+                        "Dump every K frames, starting with the initial state (default: the last frame only)")
+            ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
+            ->type_name("K")
+            ->needs(dumpOption);
+        cmd->add_option("--record", o.record,
+                        "Write a replay to FILE: the scenario, every input and every frame's state hash")
+            ->type_name("FILE");
+        cmd->add_flag("--quiet", o.quiet, "No progress bar and no summary");
+        cmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+    }
+    run->add_option("--input", o.input,
+                    "Timed actions to apply, as JSON Lines: {\"frame\": 120, \"entity\": \"crate\", "
+                    "\"action\": \"impulse\", \"value\": [0, 5, 0]} (or \"t\": seconds); recorded like "
+                    "the scenario's events")
+        ->type_name("FILE");
+    run->add_option("--snapshot-at", o.snapshotAt,
+                    "After frame N write <out>/snapshot_N.tumble (resume it with --from) and snapshot_N.jsonl "
+                    "(the whole state)")
         ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
-        ->type_name("K")
-        ->needs(dumpOption);
-    run->add_flag("--quiet", o.quiet, "No progress bar and no summary");
-    run->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+        ->type_name("N");
+    run->add_option("--from", o.from,
+                    "Resume from a snapshot: its frames are simulated again, checked against it, and the run "
+                    "goes on from there")
+        ->type_name("SNAPSHOT");
 
     // an unknown verb is named, rather than CLI11's "a subcommand is required"
     if (argc >= 2 && argv[1][0] != '-') {
         const std::string verb = argv[1];
         const auto verbs = app.get_subcommands([](CLI::App*) { return true; });
         if (std::none_of(verbs.begin(), verbs.end(), [&](CLI::App* v) { return v->get_name() == verb; })) {
-            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check and run\n"
+            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check, run and replay\n"
                       << "Run `tumble --help` for usage.\n";
             return kExitBadInput;
         }
@@ -387,8 +723,14 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
         if (check->parsed()) {
             return commandCheck(catalog, o);
         }
+        if (replay->parsed()) {
+            return commandReplay(catalog, o);
+        }
         return commandRun(catalog, o);
     } catch (const ScenarioError& e) {
+        std::cerr << "tumble: " << e.what() << "\n";
+        return kExitBadInput;
+    } catch (const ReplayError& e) {
         std::cerr << "tumble: " << e.what() << "\n";
         return kExitBadInput;
     } catch (const std::bad_alloc&) {

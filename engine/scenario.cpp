@@ -407,6 +407,81 @@ void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& 
 
 // ---- events
 
+std::optional<std::pair<std::string, std::string>> matchAction(const Catalog& catalog, const World& world,
+                                                               EventDef& ev,
+                                                               const std::vector<std::string>& present) {
+    // the action must be one that some component of this entity takes; the first that does is the one
+    const EventAction* match = nullptr;
+    std::vector<std::string> actionNames;
+    for (std::size_t i = 0; i < catalog.actions().size(); ++i) {
+        const EventAction& a = catalog.actions()[i];
+        if (std::find(actionNames.begin(), actionNames.end(), a.action) == actionNames.end()) {
+            actionNames.push_back(a.action);
+        }
+        if (!match && a.action == ev.action && a.appliesTo(world, ev.target)) {
+            match = &a;
+            ev.actionIndex = i;
+        }
+    }
+    if (!match) {
+        const bool known = std::find(actionNames.begin(), actionNames.end(), ev.action) != actionNames.end();
+        std::string names;
+        for (const std::string& s : actionNames) {
+            names += (names.empty() ? "" : ", ") + s;
+        }
+        if (known) {
+            std::string takers;
+            for (const EventAction& a : catalog.actions()) {
+                if (a.action == ev.action) {
+                    takers += (takers.empty() ? "" : " or ") + a.needs;
+                }
+            }
+            return std::pair{std::string("action"), "action '" + ev.action + "' does not apply to entity '" +
+                                                         ev.entity + "'; it applies to " + takers};
+        }
+        const std::string near = nearestName(ev.action, actionNames);
+        return std::pair{std::string("action"), "unknown action '" + ev.action + "'" +
+                                                    (near.empty() ? "; actions in this build: " + names
+                                                                  : " (did you mean '" + near + "'?)")};
+    }
+    for (const std::string& key : present) {
+        if (std::find(match->fields.begin(), match->fields.end(), key) == match->fields.end()) {
+            std::string takes;
+            for (const std::string& f : match->fields) {
+                takes += (takes.empty() ? "" : ", ") + f;
+            }
+            return std::pair{key, "action '" + ev.action + "' does not use '" + key + "'" +
+                                      (takes.empty() ? "" : "; it takes: " + takes)};
+        }
+    }
+    if (auto problem = match->check(world, ev.target, ev)) {
+        return std::pair{std::string("value"), "action '" + ev.action + "': " + *problem};
+    }
+    return std::nullopt;
+}
+
+std::optional<std::string> resolveNamedEvent(const Catalog& catalog, const World& world, EventDef& ev,
+                                             const std::vector<std::string>& present) {
+    ev.target = kNullEntity;
+    std::vector<std::string> names;
+    for (Entity e : world.entities()) {
+        if (const Name* n = world.tryGet<Name>(e)) {
+            if (n->value == ev.entity) {
+                ev.target = e;
+            }
+            names.push_back(n->value);
+        }
+    }
+    if (ev.target == kNullEntity) {
+        const std::string near = nearestName(ev.entity, names);
+        return "no entity named '" + ev.entity + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)");
+    }
+    if (auto problem = matchAction(catalog, world, ev, present)) {
+        return problem->second;
+    }
+    return std::nullopt;
+}
+
 std::uint64_t firstStepReaching(double at, double dt) {
     const double s = at / dt;
     const double nearest = std::round(s);
@@ -470,54 +545,15 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
         ev.amount = r.number("amount", 0.0, -kHuge, kHuge);
         r.finish();
 
-        // the action must be one that some component of this entity takes; the first that does is the one
-        const EventAction* match = nullptr;
-        std::vector<std::string> actionNames;
-        for (std::size_t i = 0; i < catalog.actions().size(); ++i) {
-            const EventAction& a = catalog.actions()[i];
-            if (std::find(actionNames.begin(), actionNames.end(), a.action) == actionNames.end()) {
-                actionNames.push_back(a.action);
-            }
-            if (!match && a.action == ev.action && a.appliesTo(world, found->second)) {
-                match = &a;
-                ev.actionIndex = i;
+        std::vector<std::string> present;
+        for (const char* key : {"value", "position", "radius", "amount"}) {
+            if (r.table().contains(key)) {
+                present.push_back(key);
             }
         }
         ev.target = found->second;
-        if (!match) {
-            bool known = std::find(actionNames.begin(), actionNames.end(), ev.action) != actionNames.end();
-            std::string names;
-            for (const std::string& s : actionNames) {
-                names += (names.empty() ? "" : ", ") + s;
-            }
-            if (known) {
-                std::string takers;
-                for (const EventAction& a : catalog.actions()) {
-                    if (a.action == ev.action) {
-                        takers += (takers.empty() ? "" : " or ") + a.needs;
-                    }
-                }
-                r.fail("action", "action '" + ev.action + "' does not apply to entity '" + ev.entity +
-                                     "'; it applies to " + takers);
-            }
-            const std::string near = nearestName(ev.action, actionNames);
-            r.fail("action", "unknown action '" + ev.action + "'" +
-                                 (near.empty() ? "; actions in this build: " + names
-                                               : " (did you mean '" + near + "'?)"));
-        }
-        for (const char* key : {"value", "position", "radius", "amount"}) {
-            if (r.table().contains(key) &&
-                std::find(match->fields.begin(), match->fields.end(), key) == match->fields.end()) {
-                std::string takes;
-                for (const std::string& f : match->fields) {
-                    takes += (takes.empty() ? "" : ", ") + f;
-                }
-                r.fail(key, "action '" + ev.action + "' does not use '" + key + "'" +
-                                (takes.empty() ? "" : "; it takes: " + takes));
-            }
-        }
-        if (auto problem = match->check(world, found->second, ev)) {
-            r.fail("value", "action '" + ev.action + "': " + *problem);
+        if (auto problem = matchAction(catalog, world, ev, present)) {
+            r.fail(problem->first, problem->second);
         }
         events.push_back(std::move(ev));
     }
@@ -620,6 +656,15 @@ SceneDef peekScene(const std::string& path, const std::string& text) {
     scene.description =
         s->get_as<std::string>("description") ? s->get_as<std::string>("description")->get() : "";
     return scene;
+}
+
+std::optional<std::string> resolveEvent(const Catalog& catalog, const World& world, EventDef& ev,
+                                        const std::vector<std::string>& present) {
+    return resolveNamedEvent(catalog, world, ev, present);
+}
+
+std::uint64_t stepReaching(double at, double dt) {
+    return firstStepReaching(at, dt);
 }
 
 } // namespace tumble

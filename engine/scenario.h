@@ -15,6 +15,7 @@
 #include "engine/table_reader.h"
 #include "engine/world.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,5 +40,14 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
 
 /// Reads only [scene] name and description, for `tumble list`. Throws ScenarioError.
 SceneDef peekScene(const std::string& path, const std::string& text);
+
+/// The first fixed step whose time reaches `at` seconds, as the scenario's `at` of an event means it.
+std::uint64_t stepReaching(double at, double dt);
+
+/// Resolves an event that did not come from the scenario file (external input, a replay): its entity by
+/// name and its action, checked as the scenario's events are; `present` lists the optional keys it gave
+/// (value, position, radius, amount). The message says what is wrong, or nothing when it resolves.
+std::optional<std::string> resolveEvent(const Catalog& catalog, const World& world, EventDef& ev,
+                                        const std::vector<std::string>& present);
 
 } // namespace tumble

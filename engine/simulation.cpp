@@ -4,6 +4,7 @@
 #include "engine/json.h"
 #include "engine/run_report.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace tumble {
@@ -19,6 +20,7 @@ void applyEvents(World& world, const StepContext& ctx, const Catalog& catalog) {
         if (world.alive(ev.target)) {
             catalog.actions()[ev.actionIndex].apply(world, ev.target, ev);
         }
+        queue.applied.push_back(ev);
     }
 }
 
@@ -32,7 +34,7 @@ Simulation::Simulation(const Catalog& catalog, const std::string& path, std::str
     m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
     m_world.setResource<SceneDef>(m_scenario.scene);
     m_world.setResource<RunReport>();
-    m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0});
+    m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0, {}});
     m_schedule.add(Phase::Input, "events",
                    [&catalog](World& w, const StepContext& ctx) { applyEvents(w, ctx, catalog); });
     for (const SystemEntry& s : catalog.systems()) {
@@ -63,6 +65,28 @@ void Simulation::runFrame() {
     m_schedule.run(Phase::Frame, m_world, ctx);
     m_profiler.endFrame();
     ++m_frame;
+}
+
+void Simulation::setEvents(std::vector<EventDef> events) {
+    EventQueue& queue = m_world.resource<EventQueue>();
+    queue.events = std::move(events);
+    queue.next = 0;
+}
+
+void Simulation::addEvents(const std::vector<EventDef>& events) {
+    EventQueue& queue = m_world.resource<EventQueue>();
+    std::vector<EventDef> merged(queue.events.begin() + std::ptrdiff_t(queue.next), queue.events.end());
+    merged.insert(merged.end(), events.begin(), events.end());
+    std::stable_sort(merged.begin(), merged.end(),
+                     [](const EventDef& a, const EventDef& b) { return a.step < b.step; });
+    queue.events = std::move(merged);
+    queue.next = 0;
+}
+
+std::vector<EventDef> Simulation::takeAppliedEvents() {
+    std::vector<EventDef> out;
+    out.swap(m_world.resource<EventQueue>().applied);
+    return out;
 }
 
 std::uint64_t Simulation::hash() const {

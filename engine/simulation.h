@@ -21,8 +21,9 @@ namespace tumble {
 
 /// The scripted events of a run, as a world resource; the engine's "events" input system applies them.
 struct EventQueue {
-    std::vector<EventDef> events; ///< sorted by step
-    std::size_t next = 0;         ///< first event not yet applied
+    std::vector<EventDef> events;  ///< sorted by step
+    std::size_t next = 0;          ///< first event not yet applied
+    std::vector<EventDef> applied; ///< applied since the recorder last took them (in the order applied)
 };
 
 /// One scenario running in one world; see the header comment.
@@ -34,6 +35,13 @@ public:
 
     /// Advance one frame.
     void runFrame();
+
+    /// Replaces the events still to come (resolved, sorted by step) with these: a replay's recorded ones.
+    void setEvents(std::vector<EventDef> events);
+    /// Adds events (resolved) to those still to come, after any due at the same step.
+    void addEvents(const std::vector<EventDef>& events);
+    /// The events applied since the last call, in the order applied.
+    std::vector<EventDef> takeAppliedEvents();
 
     const Scenario& scenario() const { return m_scenario; }
     const SceneDef& scene() const { return m_scenario.scene; }

@@ -1,5 +1,5 @@
 // Every demo in demos/ loads, runs a few frames headlessly and dumps a finite state, and renders a frame
-// with something in it. (Replay verification joins when replays land.)
+// with something in it while recording a replay, which then verifies.
 
 #include "tests/test_support.h"
 
@@ -39,10 +39,16 @@ TEST_P(Demo, RunsHeadlesslyForAFewFrames) {
     EXPECT_FALSE(j["entities"].empty());
 }
 
-TEST_P(Demo, RendersAFrameWithSomethingInIt) {
+TEST_P(Demo, RendersAFrameWithSomethingInItAndItsReplayVerifies) {
     const std::string out = test::tempPath(GetParam() + "_render");
-    const auto r = test::runTumble({"run", GetParam(), "--frames", "3", "--quiet", "--out", out});
+    const std::string replay = test::tempPath(GetParam() + ".tumble");
+    const auto r =
+        test::runTumble({"run", GetParam(), "--frames", "3", "--quiet", "--out", out, "--record", replay});
     ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto v = test::runTumble(
+        {"replay", replay, "--verify", "--no-render", "--out", test::tempPath(GetParam() + "_replay")});
+    EXPECT_EQ(v.exitCode, 0) << v.err;
+    EXPECT_NE(v.err.find("replay verified: 3 frames"), std::string::npos) << v.err;
     const std::string png = out + "/frame_00003.png";
     int w = 0, h = 0, channels = 0;
     stbi_uc* pixels = stbi_load(png.c_str(), &w, &h, &channels, 3);

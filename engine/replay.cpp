@@ -1,0 +1,389 @@
+#include "engine/replay.h"
+
+#include "components/name.h"
+#include "engine/dump.h"
+#include "engine/hash.h"
+
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+#ifndef TUMBLE_BUILD_ID
+#define TUMBLE_BUILD_ID "unknown"
+#endif
+
+namespace tumble {
+
+namespace {
+
+constexpr char kMagic[8] = {'T', 'U', 'M', 'B', 'L', 'E', 'R', 'P'};
+constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+std::uint64_t checksum(const std::string& bytes) {
+    Hasher h;
+    h.bytes(bytes.data(), bytes.size());
+    return h.digest();
+}
+
+// ---- writing
+
+template <class T>
+void put(std::string& out, T v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    out.append(b, sizeof(T));
+}
+
+void putString(std::string& out, const std::string& s) {
+    put(out, static_cast<std::uint32_t>(s.size()));
+    out += s;
+}
+
+void putEvent(std::string& out, const EventDef& ev) {
+    put(out, ev.step);
+    putString(out, ev.entity);
+    putString(out, ev.action);
+    put(out, static_cast<std::uint32_t>(ev.value.size()));
+    for (double v : ev.value) {
+        put(out, v);
+    }
+    for (double p : ev.position) {
+        put(out, p);
+    }
+    put(out, ev.radius);
+    put(out, ev.amount);
+}
+
+// ---- reading
+
+/// Reads little-endian values out of a byte range, failing with the file offset of the problem.
+class Cursor {
+public:
+    Cursor(const std::string& file, const std::string& bytes, std::uint64_t base)
+        : m_file(file), m_bytes(bytes), m_base(base) {}
+
+    template <class T>
+    T get(const char* what) {
+        need(sizeof(T), what);
+        T v;
+        std::memcpy(&v, m_bytes.data() + m_at, sizeof(T));
+        m_at += sizeof(T);
+        return v;
+    }
+    std::string string(const char* what) {
+        const auto n = get<std::uint32_t>(what);
+        need(n, what);
+        std::string s = m_bytes.substr(m_at, n);
+        m_at += n;
+        return s;
+    }
+    std::uint32_t count(const char* what, std::size_t minBytesEach) {
+        const auto n = get<std::uint32_t>(what);
+        if (minBytesEach > 0 && n > remaining() / minBytesEach) {
+            fail(std::string("the count of ") + what + " (" + std::to_string(n) + ") does not fit the data");
+        }
+        return n;
+    }
+    std::size_t remaining() const { return m_bytes.size() - m_at; }
+    std::uint64_t offset() const { return m_base + m_at; }
+    [[noreturn]] void fail(const std::string& message) const { throw ReplayError(m_file, offset(), message); }
+
+private:
+    void need(std::size_t n, const char* what) const {
+        if (n > remaining()) {
+            fail(std::string("the data ends inside ") + what);
+        }
+    }
+
+    const std::string& m_file;
+    const std::string& m_bytes;
+    std::uint64_t m_base;
+    std::size_t m_at = 0;
+};
+
+EventDef getEvent(Cursor& c) {
+    EventDef ev;
+    ev.step = c.get<std::uint64_t>("an event's step");
+    ev.entity = c.string("an event's entity");
+    ev.action = c.string("an event's action");
+    const std::uint32_t n = c.count("an event's values", sizeof(double));
+    ev.value.resize(n);
+    for (double& v : ev.value) {
+        v = c.get<double>("an event's value");
+    }
+    for (double& p : ev.position) {
+        p = c.get<double>("an event's position");
+    }
+    ev.radius = c.get<double>("an event's radius");
+    ev.amount = c.get<double>("an event's amount");
+    return ev;
+}
+
+} // namespace
+
+ReplayError::ReplayError(const std::string& file, std::uint64_t offset, const std::string& message)
+    : std::runtime_error(file + ": at byte " + std::to_string(offset) + ": " + message) {}
+
+const char* buildId() {
+    return TUMBLE_BUILD_ID;
+}
+
+std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities) {
+    entities.clear();
+    Hasher total;
+    for (Entity e : world.entities()) {
+        const std::uint64_t h = entityHash(world, catalog, e);
+        total.add(h);
+        const Name* name = world.tryGet<Name>(e);
+        if (!name) {
+            continue;
+        }
+        std::string kinds;
+        for (const StateCodec& codec : catalog.states()) {
+            if (codec.has(world, e)) {
+                kinds += (kinds.empty() ? "" : "+") + codec.kind;
+            }
+        }
+        if (!kinds.empty()) {
+            entities.push_back({name->value, std::move(kinds), h});
+        }
+    }
+    return total.digest();
+}
+
+// ---- ReplayWriter
+
+ReplayWriter::ReplayWriter(const std::string& path, const ReplayHeader& header) : m_path(path) {
+    m_file = std::fopen(path.c_str(), "wb");
+    if (!m_file) {
+        throw ReplayError(path, 0, std::string("cannot be written: ") + std::strerror(errno));
+    }
+    std::string payload;
+    putString(payload, header.buildId);
+    putString(payload, header.scenarioPath);
+    putString(payload, header.scenarioText);
+    put(payload, static_cast<std::uint32_t>(header.overrides.size()));
+    for (const std::string& o : header.overrides) {
+        putString(payload, o);
+    }
+    std::string out(kMagic, sizeof kMagic);
+    put(out, kReplayVersion);
+    put(out, static_cast<std::uint32_t>(payload.size()));
+    out += payload;
+    put(out, checksum(payload));
+    std::fwrite(out.data(), 1, out.size(), m_file);
+    std::fflush(m_file);
+}
+
+ReplayWriter::~ReplayWriter() {
+    if (m_file) {
+        flushChunk(); // an unfinished recording keeps what it has, without the end marker
+        std::fclose(m_file);
+    }
+}
+
+void ReplayWriter::frame(const FrameRecord& record) {
+    put(m_chunk, static_cast<std::uint32_t>(record.events.size()));
+    for (const EventDef& ev : record.events) {
+        putEvent(m_chunk, ev);
+    }
+    put(m_chunk, record.hash);
+    put(m_chunk, static_cast<std::uint32_t>(record.entities.size()));
+    for (const EntityHash& e : record.entities) {
+        auto [it, added] = m_ids.try_emplace(e.name, static_cast<std::uint32_t>(m_ids.size()));
+        if (added) {
+            put(m_names, it->second);
+            putString(m_names, e.name);
+            putString(m_names, e.kind);
+            ++m_chunkNames;
+        }
+        put(m_chunk, it->second);
+        put(m_chunk, e.hash);
+    }
+    ++m_chunkFrames;
+    ++m_frames;
+    if (m_chunkFrames == kFramesPerChunk) {
+        flushChunk();
+    }
+}
+
+void ReplayWriter::flushChunk() {
+    if (m_chunkFrames == 0) {
+        return;
+    }
+    std::string payload;
+    put(payload, m_frames - m_chunkFrames);
+    put(payload, m_chunkFrames);
+    put(payload, m_chunkNames);
+    payload += m_names;
+    payload += m_chunk;
+    std::string out = "CHNK";
+    put(out, static_cast<std::uint32_t>(payload.size()));
+    put(out, ~static_cast<std::uint32_t>(payload.size()));
+    out += payload;
+    put(out, checksum(payload));
+    std::fwrite(out.data(), 1, out.size(), m_file);
+    std::fflush(m_file);
+    m_chunk.clear();
+    m_names.clear();
+    m_chunkFrames = m_chunkNames = 0;
+}
+
+void ReplayWriter::finish() {
+    if (!m_file) {
+        return;
+    }
+    flushChunk();
+    std::string end = "ENDR";
+    std::string count;
+    put(count, m_frames);
+    end += count;
+    put(end, checksum(count));
+    std::fwrite(end.data(), 1, end.size(), m_file);
+    const bool ok = std::fflush(m_file) == 0 && !std::ferror(m_file);
+    std::fclose(m_file);
+    m_file = nullptr;
+    if (!ok) {
+        throw ReplayError(m_path, 0, "could not be written completely (disk full?)");
+    }
+}
+
+// ---- reading
+
+ReplayFile readReplay(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        throw ReplayError(path, 0, "cannot be read");
+    }
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ReplayFile file;
+    file.fileBytes = bytes.size();
+    Cursor top(path, bytes, 0);
+    if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) {
+        top.fail("not a Tumble replay (it does not start with TUMBLERP)");
+    }
+    top.get<std::uint64_t>("the magic");
+    file.header.version = top.get<std::uint32_t>("the format version");
+    if (file.header.version != kReplayVersion) {
+        throw ReplayError(path, 8,
+                          "format version " + std::to_string(file.header.version) + "; this build reads version " +
+                              std::to_string(kReplayVersion));
+    }
+    const auto headerBytes = top.get<std::uint32_t>("the header's length");
+    const std::uint64_t headerAt = top.offset();
+    if (headerBytes > top.remaining()) {
+        top.fail("the header runs past the end of the file");
+    }
+    const std::string header = bytes.substr(headerAt, headerBytes);
+    {
+        Cursor h(path, header, headerAt);
+        file.header.buildId = h.string("the build id");
+        file.header.scenarioPath = h.string("the scenario's path");
+        file.header.scenarioText = h.string("the scenario");
+        const std::uint32_t n = h.count("the overrides", 4);
+        for (std::uint32_t i = 0; i < n; ++i) {
+            file.header.overrides.push_back(h.string("an override"));
+        }
+    }
+    std::uint64_t at = headerAt + headerBytes;
+    if (bytes.size() - at < 8) {
+        throw ReplayError(path, at, "the data ends inside the header's checksum");
+    }
+    std::uint64_t sum;
+    std::memcpy(&sum, bytes.data() + at, 8);
+    if (sum != checksum(header)) {
+        throw ReplayError(path, headerAt, "the header is damaged (its checksum does not match)");
+    }
+    at += 8;
+    file.validBytes = at;
+
+    std::vector<std::pair<std::string, std::string>> names; // by id: name, kind
+    while (at < bytes.size()) {
+        const std::size_t left = bytes.size() - at;
+        if (left >= 4 && std::memcmp(bytes.data() + at, "ENDR", 4) == 0) {
+            if (left < 20) {
+                break; // cut short inside the end marker: every chunk is whole
+            }
+            if (left > 20) {
+                throw ReplayError(path, at + 20, "there are bytes after the end marker");
+            }
+            const std::string count = bytes.substr(at + 4, 8);
+            std::uint64_t frames, check;
+            std::memcpy(&frames, count.data(), 8);
+            std::memcpy(&check, bytes.data() + at + 12, 8);
+            if (check != checksum(count) || frames != file.frames.size()) {
+                throw ReplayError(path, at, "the end marker is damaged");
+            }
+            file.complete = true;
+            file.validBytes = bytes.size();
+            break;
+        }
+        if (left < 12) {
+            const std::size_t n = std::min<std::size_t>(left, 4);
+            if (std::memcmp(bytes.data() + at, "CHNK", n) != 0 && std::memcmp(bytes.data() + at, "ENDR", n) != 0) {
+                throw ReplayError(path, at, "expected a chunk or the end marker");
+            }
+            break; // cut short inside a chunk's head or the end marker
+        }
+        if (std::memcmp(bytes.data() + at, "CHNK", 4) != 0) {
+            throw ReplayError(path, at, "expected a chunk or the end marker");
+        }
+        std::uint32_t n, notN;
+        std::memcpy(&n, bytes.data() + at + 4, 4);
+        std::memcpy(&notN, bytes.data() + at + 8, 4);
+        if (n != ~notN || n > kMaxChunkBytes) {
+            throw ReplayError(path, at + 4, "a chunk's length is damaged");
+        }
+        if (left < 12 + std::uint64_t(n) + 8) {
+            break; // cut short inside this chunk: keep what came before
+        }
+        const std::string payload = bytes.substr(at + 12, n);
+        std::uint64_t check;
+        std::memcpy(&check, bytes.data() + at + 12 + n, 8);
+        if (check != checksum(payload)) {
+            throw ReplayError(path, at + 12, "a chunk is damaged (its checksum does not match)");
+        }
+        Cursor c(path, payload, at + 12);
+        const auto first = c.get<std::uint64_t>("the chunk's first frame");
+        if (first != file.frames.size()) {
+            c.fail("the chunk starts at frame " + std::to_string(first) + ", not " +
+                   std::to_string(file.frames.size()));
+        }
+        const std::uint32_t frames = c.count("the chunk's frames", 16);
+        const std::uint32_t declared = c.count("the chunk's names", 12);
+        for (std::uint32_t i = 0; i < declared; ++i) {
+            const auto id = c.get<std::uint32_t>("a name's id");
+            if (id != names.size()) {
+                c.fail("name ids out of order");
+            }
+            std::string name = c.string("a name");
+            names.emplace_back(std::move(name), c.string("a kind"));
+        }
+        for (std::uint32_t f = 0; f < frames; ++f) {
+            FrameRecord rec;
+            const std::uint32_t events = c.count("a frame's events", 40);
+            for (std::uint32_t k = 0; k < events; ++k) {
+                rec.events.push_back(getEvent(c));
+            }
+            rec.hash = c.get<std::uint64_t>("a frame's hash");
+            const std::uint32_t entities = c.count("a frame's entities", 12);
+            for (std::uint32_t k = 0; k < entities; ++k) {
+                const auto id = c.get<std::uint32_t>("an entity's id");
+                if (id >= names.size()) {
+                    c.fail("entity id " + std::to_string(id) + " was never named");
+                }
+                rec.entities.push_back({names[id].first, names[id].second, c.get<std::uint64_t>("an entity's hash")});
+            }
+            file.frames.push_back(std::move(rec));
+        }
+        if (c.remaining() != 0) {
+            c.fail("a chunk has bytes left over");
+        }
+        at += 12 + std::uint64_t(n) + 8;
+        file.validBytes = at;
+    }
+    return file;
+}
+
+} // namespace tumble

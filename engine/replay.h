@@ -1,0 +1,113 @@
+#pragma once
+// Replay files (CONTRACT.md "Replays"): what a run needs to be played again bit for bit, and what it must
+// give when it is. Binary, little-endian:
+//
+//   header   "TUMBLERP", u32 format version, u32 n, n bytes of header payload, u64 checksum of the payload
+//            payload: the build id, the scenario's path (for messages) and text, the --set overrides
+//   chunks   "CHNK", u32 n, u32 ~n, n bytes of payload, u64 checksum of the payload; one every
+//            kFramesPerChunk frames, flushed, so a crash or a kill leaves every chunk but the last whole
+//            payload: u64 first frame, u32 frames, u32 names declared here, each (u32 id, name, kind);
+//            then per frame: u32 events, each (u64 step, entity, action, u32 k, k f64 value, 3 f64
+//            position, f64 radius, f64 amount); u64 state hash; u32 entities, each (u32 id, u64 hash)
+//   end      "ENDR", u64 frames, u64 checksum of those 8 bytes: the recording finished
+//
+// Strings are u32 length + bytes. Every chunk's payload is checksummed and its length is written twice (the
+// second inverted), so one flipped byte anywhere is caught and located, and a file cut short is told
+// apart from a damaged one: it replays up to its last whole chunk. The per-entity hashes name the entity
+// whose state diverged.
+
+#include "engine/catalog.h"
+#include "engine/scene.h"
+#include "engine/world.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tumble {
+
+/// A replay file that cannot be read: the message names the file and the byte offset.
+class ReplayError : public std::runtime_error {
+public:
+    ReplayError(const std::string& file, std::uint64_t offset, const std::string& message);
+};
+
+/// One entity's state hash after a frame.
+struct EntityHash {
+    std::string name;
+    std::string kind; ///< the dump kind(s) of its components, '+'-joined
+    std::uint64_t hash = 0;
+};
+
+/// What happened in one frame: the events applied at its steps, and the state it left.
+struct FrameRecord {
+    std::vector<EventDef> events;
+    std::uint64_t hash = 0;
+    std::vector<EntityHash> entities;
+};
+
+/// The scenario a replay was recorded from.
+struct ReplayHeader {
+    std::uint32_t version = 0;
+    std::string buildId;
+    std::string scenarioPath;
+    std::string scenarioText;
+    std::vector<std::string> overrides;
+};
+
+/// A replay as read: its header and every whole frame in it.
+struct ReplayFile {
+    ReplayHeader header;
+    std::vector<FrameRecord> frames;
+    bool complete = false;      ///< ended with the end marker
+    std::uint64_t validBytes = 0; ///< bytes up to the last whole chunk
+    std::uint64_t fileBytes = 0;
+};
+
+inline constexpr std::uint32_t kReplayVersion = 1;
+inline constexpr std::uint32_t kFramesPerChunk = 8;
+
+/// This program's build id, as written into replays.
+const char* buildId();
+
+/// Writes a replay as a run goes; every chunk is flushed when it is full.
+class ReplayWriter {
+public:
+    /// Opens the file and writes the header (throws ReplayError when the file cannot be written).
+    ReplayWriter(const std::string& path, const ReplayHeader& header);
+    ~ReplayWriter();
+    ReplayWriter(const ReplayWriter&) = delete;
+    ReplayWriter& operator=(const ReplayWriter&) = delete;
+
+    /// Adds one frame.
+    void frame(const FrameRecord& record);
+    /// Writes what is pending and the end marker, and closes the file.
+    void finish();
+
+    const std::string& path() const { return m_path; }
+    std::uint64_t frames() const { return m_frames; }
+
+private:
+    void flushChunk();
+
+    std::string m_path;
+    std::FILE* m_file = nullptr;
+    std::string m_chunk;        ///< frames not yet written
+    std::string m_names;        ///< names declared in this chunk
+    std::uint32_t m_chunkFrames = 0;
+    std::uint32_t m_chunkNames = 0;
+    std::uint64_t m_frames = 0;
+    std::map<std::string, std::uint32_t> m_ids; ///< entity name -> id
+};
+
+/// Reads a whole replay; throws ReplayError for a damaged file (a file cut short is not damaged: it ends
+/// at its last whole chunk, with complete = false).
+ReplayFile readReplay(const std::string& path);
+
+/// The state hash and, for every named entity with simulated state, its own hash.
+std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities);
+
+} // namespace tumble
