@@ -51,7 +51,8 @@ struct SpringNetwork {
     double drag = 0.0; ///< N s/m, global -drag v on every mass
     Integrator integrator = Integrator::SymplecticEuler;
     double thickness = 0.0;            ///< m, kept between masses and collider surfaces
-    double friction = 0.5;             ///< Coulomb coefficient against colliders
+    double friction = 0.5;             ///< Coulomb coefficient against colliders (and itself)
+    bool selfCollision = false;        ///< cloth: collides with itself and other such cloths
     double cgTolerance = 1e-3;         ///< implicit Euler: relative residual the solve stops at
     int cgMaxIterations = 200;         ///< implicit Euler: iterations at most per step
     bool doublePrecisionSolve = false; ///< implicit Euler: solve in double rather than float

@@ -1,5 +1,6 @@
 #include "systems/builtin.h"
 
+#include "systems/cloth_collision.h"
 #include "systems/collision_system.h"
 #include "systems/force_field_system.h"
 #include "systems/particle_system.h"
@@ -16,6 +17,7 @@ void registerBuiltinSystems(Catalog& catalog) {
     registerParticleSystem(catalog);
     registerSpringSystem(catalog);
     registerCollisionSystem(catalog);
+    registerClothCollisionSystem(catalog);
     registerRigidSystem(catalog);
 }
 

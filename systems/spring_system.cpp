@@ -3,6 +3,7 @@
 #include "components/name.h"
 #include "components/rigid_body.h"
 #include "components/transform.h"
+#include "engine/random.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
 #include "systems/spring_builders.h"
@@ -181,7 +182,7 @@ void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
 }
 
 /// [entity.cloth] (CONTRACT.md).
-void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef&) {
+void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
     ClothDef def;
     def.centre = world.get<Transform>(entity).position;
     def.rows = static_cast<int>(r.integer("rows", 20, 2, 1000));
@@ -205,12 +206,25 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef&) {
             return clothPinPreset(p, rows, cols, out);
         },
         "'top-corners', 'top-row', 'left-edge', 'corners', 'none'");
-    if (r.boolean("self_collision", false)) {
-        r.fail("self_collision",
-               "cloth self-collision is not implemented in this build yet; set it to false");
-    }
+    const bool selfCollision = r.boolean("self_collision", false);
+    const double wrinkle = r.number("wrinkle", 0.0, 0.0, 1e3);
     SpringNetwork net = buildCloth(def);
+    if (wrinkle > 0.0) {
+        // no real sheet is flat: each mass off the plane by up to `wrinkle`, from the scene seed, so that a
+        // sheet dropped edge-first buckles one way or the other rather than balancing on its edge
+        Rng rng(streamSeed(scene.seed, "wrinkle:" + world.get<Name>(entity).value));
+        const Vec3 normal = def.vertical ? Vec3{0.0, 0.0, 1.0} : Vec3{0.0, 1.0, 0.0};
+        for (std::size_t i = 0; i < net.x.size(); ++i) {
+            if (!net.pinned[i]) {
+                net.x[i] += normal * rng.uniform(-wrinkle, wrinkle);
+            }
+        }
+    }
     readCommon(r, net, "implicit_euler");
+    net.selfCollision = selfCollision;
+    if (selfCollision && net.thickness <= 0.0) {
+        r.fail("thickness", "self-collision keeps the cloth's sheets a 'thickness' apart: it must be above 0");
+    }
     attach(world, entity, std::move(net));
 }
 

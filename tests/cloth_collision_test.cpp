@@ -1,0 +1,197 @@
+// Cloth self-collision: the hierarchy against brute force, and cloths that fold onto themselves (the pile
+// and drape_sphere demos) checked afterwards by exact tests over every pair: no two triangles that share no
+// corner intersect, and no mass comes closer than half the thickness to a triangle it is not joined to.
+
+#include "components/spring_network.h"
+#include "systems/bvh.h"
+#include "systems/cloth_collision.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+#include <set>
+
+namespace tumble {
+namespace {
+
+using Pairs = std::vector<std::array<std::uint32_t, 2>>;
+
+std::vector<Aabb> boxesOf(const std::vector<Triangle>& tris, const std::vector<Vec3>& x) {
+    std::vector<Aabb> boxes;
+    for (const Triangle& t : tris) {
+        boxes.push_back(triangleBox(t, x, {}, 0.01));
+    }
+    return boxes;
+}
+
+Pairs bruteSelf(const std::vector<Aabb>& boxes) {
+    Pairs out;
+    for (std::uint32_t i = 0; i < boxes.size(); ++i) {
+        for (std::uint32_t j = i + 1; j < boxes.size(); ++j) {
+            if (boxes[i].overlaps(boxes[j])) {
+                out.push_back({i, j});
+            }
+        }
+    }
+    return out;
+}
+
+Pairs sorted(Pairs p) {
+    std::sort(p.begin(), p.end());
+    return p;
+}
+
+TEST(Bvh, SelfAndCrossQueriesAgreeWithBruteForceBeforeAndAfterRefits) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int trial = 0; trial < 5; ++trial) {
+        // a random soup of small triangles in a unit cube, and a second one
+        std::vector<Vec3> x(300), y(200);
+        for (Vec3& p : x) {
+            p = {u(rng), u(rng), u(rng)};
+        }
+        for (Vec3& p : y) {
+            p = {u(rng), u(rng), u(rng)};
+        }
+        std::vector<Triangle> tx, ty;
+        for (std::uint32_t i = 0; i + 2 < x.size(); i += 3) {
+            // small triangles: corners near the first
+            x[i + 1] = x[i] + Vec3{0.1 * u(rng), 0.1 * u(rng), 0.1 * u(rng)};
+            x[i + 2] = x[i] + Vec3{0.1 * u(rng), 0.1 * u(rng), 0.1 * u(rng)};
+            tx.push_back({i, i + 1, i + 2});
+        }
+        for (std::uint32_t i = 0; i + 2 < y.size(); i += 3) {
+            y[i + 1] = y[i] + Vec3{0.1 * u(rng), 0.1 * u(rng), 0.1 * u(rng)};
+            y[i + 2] = y[i] + Vec3{0.1 * u(rng), 0.1 * u(rng), 0.1 * u(rng)};
+            ty.push_back({i, i + 1, i + 2});
+        }
+        Bvh a, b;
+        a.build(boxesOf(tx, x));
+        b.build(boxesOf(ty, y));
+        for (int move = 0; move < 4; ++move) {
+            const std::vector<Aabb> bx = boxesOf(tx, x), by = boxesOf(ty, y);
+            if (move > 0) {
+                a.refit(bx);
+                b.refit(by);
+            }
+            Pairs self, cross;
+            a.selfPairs(self);
+            a.pairsWith(b, cross);
+            EXPECT_EQ(sorted(self), bruteSelf(bx)) << "trial " << trial << " move " << move;
+            Pairs brute;
+            for (std::uint32_t i = 0; i < bx.size(); ++i) {
+                for (std::uint32_t j = 0; j < by.size(); ++j) {
+                    if (bx[i].overlaps(by[j])) {
+                        brute.push_back({i, j});
+                    }
+                }
+            }
+            EXPECT_EQ(sorted(cross), brute) << "trial " << trial << " move " << move;
+            EXPECT_GT(self.size() + cross.size(), 0u) << "the test has something to find";
+            // move every point a little: the tree is refitted, not rebuilt
+            for (Vec3& p : x) {
+                p += Vec3{0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
+            }
+            for (Vec3& p : y) {
+                p += Vec3{0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
+            }
+        }
+    }
+}
+
+TEST(Bvh, RefitAsksForARebuildWhenTheTreeLoosens) {
+    std::vector<Vec3> x;
+    std::vector<Triangle> tris;
+    for (std::uint32_t i = 0; i < 64; ++i) {
+        x.push_back({double(i), 0, 0});
+        x.push_back({double(i) + 0.5, 0, 0});
+        x.push_back({double(i), 0.5, 0});
+        tris.push_back({3 * i, 3 * i + 1, 3 * i + 2});
+    }
+    Bvh tree;
+    tree.build(boxesOf(tris, x));
+    EXPECT_TRUE(tree.refit(boxesOf(tris, x)));
+    // scatter the triangles: neighbours in the tree are now far apart
+    for (std::uint32_t i = 0; i < 64; ++i) {
+        const double shift = double((i * 37) % 64) - double(i);
+        for (std::uint32_t k = 0; k < 3; ++k) {
+            x[3 * i + k].y += shift;
+        }
+    }
+    EXPECT_FALSE(tree.refit(boxesOf(tris, x)));
+}
+
+/// The worst of the exact checks over a cloth: intersecting pairs of triangles that share no corner, and
+/// the nearest approach of a mass to a triangle that neither holds it nor is joined to it by a spring.
+struct Check {
+    int intersections = 0;
+    double nearest = 1e300;
+};
+
+Check checkCloth(const SpringNetwork& net) {
+    std::vector<std::set<std::uint32_t>> linked(net.x.size());
+    for (const SpringLink& l : net.links) {
+        linked[l.a].insert(l.b);
+        linked[l.b].insert(l.a);
+    }
+    Check c;
+    const auto& t = net.triangles;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        for (std::size_t j = i + 1; j < t.size(); ++j) {
+            bool share = false;
+            for (std::uint32_t a : t[i]) {
+                share = share || a == t[j][0] || a == t[j][1] || a == t[j][2];
+            }
+            if (!share && trianglesIntersect(net.x[t[i][0]], net.x[t[i][1]], net.x[t[i][2]], net.x[t[j][0]],
+                                             net.x[t[j][1]], net.x[t[j][2]])) {
+                ++c.intersections;
+            }
+        }
+    }
+    for (std::uint32_t p = 0; p < net.x.size(); ++p) {
+        for (const Triangle& tri : t) {
+            bool near = false;
+            for (std::uint32_t k : tri) {
+                near = near || k == p || linked[p].count(k) > 0;
+            }
+            if (!near) {
+                double w[3];
+                const double d = pointTriangleDistance(net.x[p], net.x[tri[0]], net.x[tri[1]], net.x[tri[2]], w);
+                c.nearest = std::min(c.nearest, d);
+            }
+        }
+    }
+    return c;
+}
+
+class FoldingDemo : public ::testing::TestWithParam<std::pair<const char*, int>> {};
+
+TEST_P(FoldingDemo, NoTwoSheetsPassThroughOrTouchEachOther) {
+    const auto [demo, frames] = GetParam();
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + demo + ".toml";
+    auto sim = test::simulate(test::readFile(path));
+    const SpringNetwork& net = test::component<SpringNetwork>(*sim, "sheet");
+    int worstIntersections = 0;
+    double nearest = 1e300;
+    for (int f = 1; f <= frames; ++f) {
+        sim->runFrame();
+        if (f % 40 == 0 || f == frames) {
+            const Check c = checkCloth(net);
+            worstIntersections = std::max(worstIntersections, c.intersections);
+            nearest = std::min(nearest, c.nearest);
+        }
+    }
+    EXPECT_EQ(worstIntersections, 0) << demo;
+    EXPECT_GE(nearest, 0.5 * net.thickness) << demo;
+    const ClothCollision& cc = test::component<ClothCollision>(*sim, "sheet");
+    EXPECT_FALSE(cc.tree.empty());
+}
+
+INSTANTIATE_TEST_SUITE_P(Cloth, FoldingDemo,
+                         ::testing::Values(std::pair{"pile", 240}, std::pair{"drape_sphere", 240}),
+                         [](const auto& param) { return std::string(param.param.first); });
+
+} // namespace
+} // namespace tumble
