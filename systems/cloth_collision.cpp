@@ -191,11 +191,9 @@ public:
         for (std::uint32_t m = 0; m < m_meshes.size(); ++m) {
             m_pairs.clear();
             m_meshes[m].cc->tree.selfPairs(m_pairs);
-            const auto& tris = m_meshes[m].net->triangles;
+            // triangles that share a corner are not skipped: their other vertices and edges may still
+            // be a pair that only they report (the spring test leaves out what they hold in common)
             for (const auto& [i, j] : m_pairs) {
-                if (shareVertex(tris[i], tris[j])) {
-                    continue;
-                }
                 addTrianglePair(m, i, m, j);
             }
             for (std::uint32_t o = m + 1; o < m_meshes.size(); ++o) {
@@ -206,10 +204,11 @@ public:
                 }
             }
         }
+        // the passes go through the pairs one after another, each seeing the last one's corrections, so
+        // their order matters: in index order (grouped by point, then by edge) they settle where the
+        // hierarchy's order left the pile demo with 14 crossed pairs of triangles
         std::sort(m_vt.begin(), m_vt.end());
-        m_vt.erase(std::unique(m_vt.begin(), m_vt.end()), m_vt.end());
         std::sort(m_ee.begin(), m_ee.end());
-        m_ee.erase(std::unique(m_ee.begin(), m_ee.end()), m_ee.end());
     }
 
     /// One pass of proximity repulsion; the number of pairs pushed apart.
@@ -260,15 +259,6 @@ public:
     std::size_t eeCount() const { return m_ee.size(); }
 
 private:
-    static bool shareVertex(const Triangle& a, const Triangle& b) {
-        for (std::uint32_t i : a) {
-            if (i == b[0] || i == b[1] || i == b[2]) {
-                return true;
-            }
-        }
-        return false;
-    }
-
     /// Masses i and j of one mesh are the same or joined by a spring: that spring keeps them apart.
     bool near(std::uint32_t m, std::uint32_t i, std::uint32_t j) const {
         if (i == j) {
@@ -291,47 +281,50 @@ private:
         return b.overlaps(box);
     }
 
+    /// The vertex-triangle and edge-edge pairs of two triangles, each pair once over the whole query: a
+    /// vertex is taken only from the first triangle that holds it, an edge only from the first that has it
+    /// (their boxes hold the vertex's and the edge's, so the query reports those triangles' pairs too).
     void addTrianglePair(std::uint32_t ma, std::uint32_t ta, std::uint32_t mb, std::uint32_t tb) {
         const Triangle& a = m_meshes[ma].net->triangles[ta];
         const Triangle& b = m_meshes[mb].net->triangles[tb];
+        const ClothCollision& ca = *m_meshes[ma].cc;
+        const ClothCollision& cb = *m_meshes[mb].cc;
         const bool same = ma == mb;
-        const Aabb& boxA = m_meshes[ma].cc->boxes[ta];
-        const Aabb& boxB = m_meshes[mb].cc->boxes[tb];
         // within one cloth, a mass joined by a spring to a corner of the triangle (or an edge joined to the
         // other edge) is kept apart by that spring, not by collisions: the grid's neighbours are left out
         for (std::uint32_t p : a) {
-            if (!(same && (near(ma, p, b[0]) || near(ma, p, b[1]) || near(ma, p, b[2]))) &&
-                sweptOverlaps(ma, {p}, boxB)) {
+            if (ca.vertexOwner[p] == ta && !(same && (near(ma, p, b[0]) || near(ma, p, b[1]) || near(ma, p, b[2]))) &&
+                sweptOverlaps(ma, {p}, cb.boxes[tb])) {
                 m_vt.push_back({ma, p, mb, tb});
             }
         }
         for (std::uint32_t p : b) {
-            if (!(same && (near(ma, p, a[0]) || near(ma, p, a[1]) || near(ma, p, a[2]))) &&
-                sweptOverlaps(mb, {p}, boxA)) {
+            if (cb.vertexOwner[p] == tb && !(same && (near(ma, p, a[0]) || near(ma, p, a[1]) || near(ma, p, a[2]))) &&
+                sweptOverlaps(mb, {p}, ca.boxes[ta])) {
                 m_vt.push_back({mb, p, ma, ta});
             }
         }
         for (int i = 0; i < 3; ++i) {
+            if (!(ca.edgeOwned[ta] & (1u << i))) {
+                continue;
+            }
             const std::uint32_t a0 = std::min(a[i], a[(i + 1) % 3]), a1 = std::max(a[i], a[(i + 1) % 3]);
+            Aabb edgeA;
+            for (std::uint32_t k : {a0, a1}) {
+                edgeA.add(m_meshes[ma].net->x[k]);
+                edgeA.add(ca.previous[k]);
+            }
+            edgeA.inflate(m_meshes[ma].net->thickness);
             for (int j = 0; j < 3; ++j) {
+                if (!(cb.edgeOwned[tb] & (1u << j))) {
+                    continue;
+                }
                 const std::uint32_t b0 = std::min(b[j], b[(j + 1) % 3]), b1 = std::max(b[j], b[(j + 1) % 3]);
                 if (same && (near(ma, a0, b0) || near(ma, a0, b1) || near(ma, a1, b0) || near(ma, a1, b1))) {
                     continue;
                 }
-                Aabb edgeB;
-                for (std::uint32_t k : {b0, b1}) {
-                    edgeB.add(m_meshes[mb].net->x[k]);
-                    edgeB.add(m_meshes[mb].cc->previous[k]);
-                }
-                edgeB.inflate(m_meshes[mb].net->thickness);
-                if (!sweptOverlaps(ma, {a0, a1}, edgeB)) {
-                    continue;
-                }
-                // one order per pair of edges
-                if (std::tie(ma, a0, a1) < std::tie(mb, b0, b1)) {
+                if (sweptOverlaps(mb, {b0, b1}, edgeA)) {
                     m_ee.push_back({ma, a0, a1, mb, b0, b1});
-                } else {
-                    m_ee.push_back({mb, b0, b1, ma, a0, a1});
                 }
             }
         }
@@ -611,6 +604,27 @@ void collideCloth(World& world, const StepContext& ctx) {
         ClothCollision& cc = *m.cc;
         if (cc.previous.size() != m.net->x.size()) {
             cc.previous = m.net->x;
+        }
+        if (cc.vertexOwner.size() != m.net->x.size() || cc.edgeOwned.size() != m.net->triangles.size()) {
+            // the first triangle of each vertex and of each edge: the one that answers for it in queries
+            const auto& tris = m.net->triangles;
+            cc.vertexOwner.assign(m.net->x.size(), ~0u);
+            cc.edgeOwned.assign(tris.size(), 0);
+            std::vector<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, int>> edges;
+            for (std::uint32_t t = 0; t < tris.size(); ++t) {
+                for (int k = 0; k < 3; ++k) {
+                    cc.vertexOwner[tris[t][k]] = std::min(cc.vertexOwner[tris[t][k]], t);
+                    const std::uint32_t u = tris[t][k], v = tris[t][(k + 1) % 3];
+                    edges.emplace_back(std::min(u, v), std::max(u, v), t, k);
+                }
+            }
+            std::sort(edges.begin(), edges.end());
+            for (std::size_t e = 0; e < edges.size(); ++e) {
+                const auto& [u, v, t, k] = edges[e];
+                if (e == 0 || std::get<0>(edges[e - 1]) != u || std::get<1>(edges[e - 1]) != v) {
+                    cc.edgeOwned[t] = std::uint8_t(cc.edgeOwned[t] | (1u << k));
+                }
+            }
         }
         if (cc.linked.size() != m.net->x.size()) {
             cc.linked.assign(m.net->x.size(), {});

@@ -35,6 +35,8 @@ struct ClothCollision {
     std::vector<Vec3> previous; ///< m, where the masses were when the step began
     std::vector<Aabb> boxes;    ///< per triangle, swept and inflated
     std::vector<std::vector<std::uint32_t>> linked; ///< per mass, the masses a spring joins it to, sorted
+    std::vector<std::uint32_t> vertexOwner;         ///< per mass, the first triangle that holds it
+    std::vector<std::uint8_t> edgeOwned;            ///< per triangle, bit k: it is the first with edge k
     Bvh tree;
     std::size_t rebuilds = 0; ///< times the tree was rebuilt after its first build
 };
