@@ -166,6 +166,56 @@ Check checkCloth(const SpringNetwork& net) {
     return c;
 }
 
+TEST(ClothCollision, TwoClothsDroppedOnABallStayApart) {
+    // two sheets, one above the other, fall onto a ball and onto each other
+    std::string text = R"(
+[scene]
+name = "two"
+dt = 0.008333333333
+substeps = 2
+[[entity]]
+name = "floor"
+[entity.rigid_body]
+shape = "plane"
+[[entity]]
+name = "ball"
+[entity.transform]
+position = [0.0, 0.4, 0.0]
+[entity.rigid_body]
+shape = "sphere"
+radius = 0.4
+)";
+    for (const char* sheet : {"lower", "upper"}) {
+        text += std::string("[[entity]]\nname = \"") + sheet + "\"\n[entity.transform]\nposition = [0.1, " +
+                (sheet[0] == 'l' ? "1.0" : "1.3") +
+                ", 0.05]\n[entity.cloth]\nrows = 20\ncols = 20\nsize = [1.2, 1.2]\nplane = \"xz\"\n"
+                "stretch = 3000.0\nshear = 300.0\nbend = 1.0\npin = \"none\"\nthickness = 0.012\n"
+                "self_collision = true\n";
+    }
+    auto sim = test::simulate(text);
+    for (int f = 0; f < 120; ++f) {
+        sim->runFrame();
+    }
+    const SpringNetwork& a = test::component<SpringNetwork>(*sim, "lower");
+    const SpringNetwork& b = test::component<SpringNetwork>(*sim, "upper");
+    int crossings = 0;
+    double nearest = 1e300;
+    for (const Triangle& s : a.triangles) {
+        for (const Triangle& t : b.triangles) {
+            crossings += trianglesIntersect(a.x[s[0]], a.x[s[1]], a.x[s[2]], b.x[t[0]], b.x[t[1]], b.x[t[2]]);
+        }
+    }
+    for (const Vec3& p : a.x) {
+        for (const Triangle& t : b.triangles) {
+            double w[3];
+            nearest = std::min(nearest, pointTriangleDistance(p, b.x[t[0]], b.x[t[1]], b.x[t[2]], w));
+        }
+    }
+    EXPECT_EQ(crossings, 0);
+    EXPECT_GE(nearest, 0.5 * 0.012);
+    EXPECT_LT(nearest, 0.05) << "the sheets lie on each other: the test had something to prevent";
+}
+
 class FoldingDemo : public ::testing::TestWithParam<std::pair<const char*, int>> {};
 
 TEST_P(FoldingDemo, NoTwoSheetsPassThroughOrTouchEachOther) {
