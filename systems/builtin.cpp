@@ -7,6 +7,7 @@
 #include "systems/render_system.h"
 #include "systems/rigid_system.h"
 #include "systems/spring_system.h"
+#include "systems/water_system.h"
 
 namespace tumble {
 
@@ -19,6 +20,7 @@ void registerBuiltinSystems(Catalog& catalog) {
     registerCollisionSystem(catalog);
     registerClothCollisionSystem(catalog);
     registerRigidSystem(catalog);
+    registerWaterSystem(catalog);
 }
 
 } // namespace tumble

@@ -140,7 +140,12 @@ int cubicRoots(const double c[4], double roots[3]) {
         }
     }
     cuts[n++] = 1.0;
-    std::sort(cuts, cuts + n);
+    // at most four: sorted by hand (std::sort here trips g++'s -Warray-bounds at -O2)
+    for (int i = 1; i < n; ++i) {
+        for (int j = i; j > 0 && cuts[j] < cuts[j - 1]; --j) {
+            std::swap(cuts[j], cuts[j - 1]);
+        }
+    }
     int found = 0;
     for (int k = 0; k + 1 < n && found < 3; ++k) {
         double lo = cuts[k], hi = cuts[k + 1];

@@ -5,6 +5,7 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/transform.h"
+#include "components/water.h"
 #include "components/spring_network.h"
 #include "engine/gl_context.h"
 #include "engine/render_output.h"
@@ -446,6 +447,40 @@ void drawColliders(World& world, Renderer& r, double alpha) {
     });
 }
 
+/// A water surface: its height field as a lit, two-sided surface with normals from the slopes.
+void drawWater(const Water& w, Renderer& r) {
+    r.clothVertices.clear();
+    auto at = [&](int i, int k) {
+        return Vec3{w.nodeX(i), w.centre.y + w.h[std::size_t(k) * w.nx + i], w.nodeZ(k)};
+    };
+    auto normal = [&](int i, int k) {
+        const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, w.nx - 1);
+        const int k0 = std::max(k - 1, 0), k1 = std::min(k + 1, w.nz - 1);
+        const double sx = (w.h[std::size_t(k) * w.nx + i1] - w.h[std::size_t(k) * w.nx + i0]) / (w.dx() * (i1 - i0));
+        const double sz = (w.h[std::size_t(k1) * w.nx + i] - w.h[std::size_t(k0) * w.nx + i]) / (w.dz() * (k1 - k0));
+        const Vec3 n{-sx, 1.0, -sz};
+        return n * (1.0 / length(n));
+    };
+    for (int k = 0; k + 1 < w.nz; ++k) {
+        for (int i = 0; i + 1 < w.nx; ++i) {
+            for (const auto& [di, dk] : {std::pair{0, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{0, 0},
+                                         std::pair{1, 1}, std::pair{1, 0}}) {
+                pushVertex(r.clothVertices, at(i + di, k + dk), normal(i + di, k + dk));
+            }
+        }
+    }
+    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
+    const std::array<float, 4> colour{0.20f, 0.45f, 0.75f, 1.0f};
+    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
+    glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, colour.data());
+    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
+    glBindVertexArray(r.clothVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
+                 GL_STREAM_DRAW);
+    glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
+}
+
 /// A network with surface triangles (cloth, the outside of a soft body), lit, with smooth normals.
 void drawSurface(const SpringNetwork& net, const std::vector<Vec3>& x, Renderer& r,
                  const std::array<float, 4>& colour) {
@@ -518,6 +553,7 @@ void renderWorld(World& world, const StepContext& ctx) {
                 float(light.z));
     glUniform3f(glGetUniformLocation(r.meshProgram, "uEye"), float(eye.x), float(eye.y), float(eye.z));
     drawColliders(world, r, ctx.alpha);
+    world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r); });
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         if (!net.triangles.empty()) {

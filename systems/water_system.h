@@ -1,0 +1,28 @@
+#pragma once
+// Height-field water (the grid method of the lecture material): the discrete 2D wave equation
+//   u_tt = c^2 (u_xx + u_zz) - damping u_t
+// on the nodes of a regular grid, by symplectic Euler (v += dt (c^2 Lap(u) - damping v); u += dt v), with
+// the five-point Laplacian. Stable while c dt sqrt(1/dx^2 + 1/dz^2) <= 1 (the CFL limit); a scene whose dt
+// breaks it takes as many wave steps per fixed step as it needs, and says so once.
+// Borders: `reflect` (the surface's slope is zero there: waves bounce back) or `absorb` (a first-order
+// one-way condition, u_t = -c u_n, after Engquist & Majda: waves leave with little reflection).
+// Disturbances: the `disturb` event (position, radius, amount: a smooth raised or lowered bump), and rigid
+// bodies: where a body's column dips below the surface, the water it pushes aside is taken from those
+// nodes as the body sinks in (and given back as it rises), and the body feels buoyancy (the weight of the
+// water it displaces, at the centre of that volume) and a drag on its motion through the water.
+// System: reads RigidBody; writes Water and the impulses on RigidBody. Phase: fixed, after the rigid bridges.
+
+#include "components/water.h"
+#include "engine/catalog.h"
+#include "engine/step_context.h"
+#include "engine/world.h"
+
+namespace tumble {
+
+/// One fixed step of every water surface, with the bodies in it.
+void stepWater(World& world, const StepContext& ctx);
+
+/// Registers the `water` component, its dump kind "water", the `disturb` event and the system.
+void registerWaterSystem(Catalog& catalog);
+
+} // namespace tumble
