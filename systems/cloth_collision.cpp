@@ -47,8 +47,14 @@ struct Stencil {
     }
     /// Changes q by dq (in field x or v), sharing it by inverse mass and weight.
     void apply(std::vector<Vec3> SpringNetwork::*field, const Vec3& dq) const {
+        // the free points must carry a fair share of the contact: a point at the very end of an edge whose
+        // others are pinned would otherwise be thrown by dq divided by its tiny weight
+        double all = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            all += net[k]->invMass[idx[k]];
+        }
         const double m = inverseMass();
-        if (m <= 0.0) {
+        if (m <= 1e-6 * all) {
             return;
         }
         const Vec3 j = dq * (1.0 / m);
@@ -224,7 +230,9 @@ public:
             Vec3 n;
             const double d = vtEnd(c, s, n);
             if (d < thickness(c.pm, c.tm)) {
-                respond(s, n, thickness(c.pm, c.tm) - d, friction(c.pm, c.tm));
+                // pushed to the side it started on: back across the triangle if it went through
+                const double depth = orient(s, n) ? thickness(c.pm, c.tm) + d : thickness(c.pm, c.tm) - d;
+                respond(s, n, depth, friction(c.pm, c.tm));
                 pushed += d < kSettled * thickness(c.pm, c.tm);
             }
         }
@@ -233,7 +241,8 @@ public:
             Vec3 n;
             const double d = eeEnd(c, s, n);
             if (d < thickness(c.am, c.bm)) {
-                respond(s, n, thickness(c.am, c.bm) - d, friction(c.am, c.bm));
+                const double depth = orient(s, n) ? thickness(c.am, c.bm) + d : thickness(c.am, c.bm) - d;
+                respond(s, n, depth, friction(c.am, c.bm));
                 pushed += d < kSettled * thickness(c.am, c.bm);
             }
         }
@@ -264,7 +273,8 @@ public:
     std::size_t eeCount() const { return m_ee.size(); }
 
 private:
-    /// Masses i and j of one mesh are the same or joined by a spring: that spring keeps them apart.
+    /// Masses i and j of one mesh are the same or corners of one triangle: their own springs keep them
+    /// apart. (Any spring would leave out pairs two cells apart, which a tight fold brings together.)
     bool near(std::uint32_t m, std::uint32_t i, std::uint32_t j) const {
         if (i == j) {
             return true;
@@ -295,8 +305,8 @@ private:
         const ClothCollision& ca = *m_meshes[ma].cc;
         const ClothCollision& cb = *m_meshes[mb].cc;
         const bool same = ma == mb;
-        // within one cloth, a mass joined by a spring to a corner of the triangle (or an edge joined to the
-        // other edge) is kept apart by that spring, not by collisions: the grid's neighbours are left out
+        // within one cloth, a mass that shares a triangle with a corner of the other (or an edge whose end
+        // does with an end of the other edge) is its neighbour on the surface: left to the springs
         for (std::uint32_t p : a) {
             if (ca.vertexOwner[p] == ta && !(same && (near(ma, p, b[0]) || near(ma, p, b[1]) || near(ma, p, b[2]))) &&
                 sweptOverlaps(ma, {p}, cb.boxes[tb])) {
@@ -383,6 +393,20 @@ private:
             n = -n;
         }
         return n;
+    }
+
+    /// Turns n towards the side the pair began the step on; true when it ends on the other side (so the
+    /// push must also undo the crossing).
+    bool orient(const Stencil& s, Vec3& n) const {
+        Vec3 start;
+        for (int k = 0; k < 4; ++k) {
+            start += ownerOf(s.net[k])->previous[s.idx[k]] * s.w[k];
+        }
+        if (dot(start, n) < 0.0) {
+            n = -n;
+            return true;
+        }
+        return false;
     }
 
     /// Pushes a contact apart by `depth` along n, removes its approach speed and applies friction.
@@ -633,12 +657,18 @@ void collideCloth(World& world, const StepContext& ctx) {
         }
         if (cc.linked.size() != m.net->x.size()) {
             cc.linked.assign(m.net->x.size(), {});
-            for (const SpringLink& l : m.net->links) {
-                cc.linked[l.a].push_back(l.b);
-                cc.linked[l.b].push_back(l.a);
+            for (const Triangle& t : m.net->triangles) {
+                for (int a = 0; a < 3; ++a) {
+                    for (int b = 0; b < 3; ++b) {
+                        if (a != b) {
+                            cc.linked[t[a]].push_back(t[b]);
+                        }
+                    }
+                }
             }
             for (auto& list : cc.linked) {
                 std::sort(list.begin(), list.end());
+                list.erase(std::unique(list.begin(), list.end()), list.end());
             }
         }
         cc.boxes.resize(m.net->triangles.size());
