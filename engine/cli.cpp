@@ -107,6 +107,7 @@ struct Source {
     std::shared_ptr<const ReplayFile> replay; ///< replay: the recorded events and hashes
     bool verify = false;             ///< compare every frame's hash with the replay's
     std::uint64_t resume = 0;        ///< --from: frames re-simulated (and checked) before the run proper
+    std::string replayPath;          ///< the replay or snapshot file, for messages
 };
 
 int commandList() {
@@ -179,8 +180,8 @@ std::vector<EventDef> readInputEvents(const std::string& path, const Simulation&
             fail("an action needs exactly one of 'frame' and 't'");
         }
         auto number = [&](const nlohmann::json& v, const char* what) {
-            if (!v.is_number() || !std::isfinite(v.get<double>())) {
-                fail(std::string("'") + what + "' must be a finite number");
+            if (!v.is_number() || !std::isfinite(v.get<double>()) || std::abs(v.get<double>()) > 1e9) {
+                fail(std::string("'") + what + "' must be a finite number within +-1e9 (as in a scenario)");
             }
             return v.get<double>();
         };
@@ -242,10 +243,14 @@ std::vector<EventDef> readInputEvents(const std::string& path, const Simulation&
 }
 
 /// Names what differs between a recorded frame and the same frame replayed.
-std::string describeDivergence(std::uint64_t frame, const FrameRecord& recorded, std::uint64_t hash,
-                               const std::vector<EntityHash>& now) {
+std::string describeDivergence(std::uint64_t frame, const ReplayFile& file, const FrameRecord& recorded,
+                               std::uint64_t hash, const std::vector<EntityHash>& now) {
     std::string where = "the replay diverged at frame " + std::to_string(frame) + ": ";
-    for (const EntityHash& r : recorded.entities) {
+    std::vector<EntityHash> named;
+    for (const EntityHash& e : recorded.entities) {
+        named.push_back({file.names[e.id].first, file.names[e.id].second, e.hash, e.id});
+    }
+    for (const EntityHash& r : named) {
         const auto found = std::find_if(now.begin(), now.end(), [&](const EntityHash& e) { return e.name == r.name; });
         if (found == now.end()) {
             return where + "entity '" + r.name + "' (" + r.kind + ") is in the recording but not in the replay";
@@ -256,8 +261,7 @@ std::string describeDivergence(std::uint64_t frame, const FrameRecord& recorded,
         }
     }
     for (const EntityHash& e : now) {
-        if (std::none_of(recorded.entities.begin(), recorded.entities.end(),
-                         [&](const EntityHash& r) { return r.name == e.name; })) {
+        if (std::none_of(named.begin(), named.end(), [&](const EntityHash& r) { return r.name == e.name; })) {
             return where + "entity '" + e.name + "' (" + e.kind + ") is in the replay but not in the recording";
         }
     }
@@ -265,24 +269,44 @@ std::string describeDivergence(std::uint64_t frame, const FrameRecord& recorded,
            ") though every named entity matches: unnamed state (a joint, say) differs";
 }
 
+/// The simulation of a source; a replay's own scenario that does not load is the replay's fault (exit 2
+/// naming the replay).
+std::unique_ptr<Simulation> load(const Catalog& catalog, const Source& src) {
+    if (!src.replay) {
+        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets);
+    }
+    try {
+        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets);
+    } catch (const ScenarioError& e) {
+        throw ReplayError(src.replayPath, 0, std::string("its scenario does not load here: ") + e.what());
+    }
+}
+
 int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
-    Simulation sim(catalog, src.path, src.text, src.sets);
+    const std::unique_ptr<Simulation> owned = load(catalog, src);
+    Simulation& sim = *owned;
     const SceneDef& scene = sim.scene();
+    const auto substeps = static_cast<std::uint64_t>(scene.substeps);
     if (src.replay) {
-        // the recorded events, not the scenario's: they are what happened
+        // the recorded events, not the scenario's: they are what happened; each must belong to the frame
+        // it was recorded in
         std::vector<EventDef> events;
-        for (const FrameRecord& f : src.replay->frames) {
-            for (EventDef ev : f.events) {
+        for (std::size_t f = 0; f < src.replay->frames.size(); ++f) {
+            for (EventDef ev : src.replay->frames[f].events) {
+                if (ev.step < f * substeps || ev.step >= (f + 1) * substeps) {
+                    throw ReplayError(src.replayPath, 0, "a recorded event at step " + std::to_string(ev.step) +
+                                                             " is filed under frame " + std::to_string(f + 1));
+                }
                 std::vector<std::string> present;
                 if (auto problem = resolveEvent(catalog, sim.world(), ev, present)) {
-                    throw ReplayError(o.scenario, 0, "a recorded event does not fit its scenario: " + *problem);
+                    throw ReplayError(src.replayPath, 0, "a recorded event does not fit its scenario: " + *problem);
                 }
                 events.push_back(std::move(ev));
             }
         }
         if (src.resume > 0) {
             // resuming: after the snapshot's frames the scenario's own events take over again
-            const std::uint64_t from = src.resume * static_cast<std::uint64_t>(scene.substeps);
+            const std::uint64_t from = src.resume * substeps;
             for (const EventDef& ev : sim.scenario().events) {
                 if (ev.step >= from) {
                     events.push_back(ev);
@@ -292,7 +316,10 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
         sim.setEvents(std::move(events));
     }
     if (!o.input.empty()) {
-        sim.addEvents(readInputEvents(o.input, sim));
+        // resuming, the snapshot already holds the inputs applied before it
+        std::vector<EventDef> input = readInputEvents(o.input, sim);
+        std::erase_if(input, [&](const EventDef& ev) { return ev.step < src.resume * substeps; });
+        sim.addEvents(input);
     }
     std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
     if (src.replay && src.resume == 0) {
@@ -321,7 +348,7 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
         if (src.replay && (src.verify || f <= src.resume) && f <= src.replay->frames.size()) {
             const FrameRecord& expected = src.replay->frames[f - 1];
             if (expected.hash != rec.hash) {
-                diverged = describeDivergence(f, expected, rec.hash, rec.entities);
+                diverged = describeDivergence(f, *src.replay, expected, rec.hash, rec.entities);
                 return false;
             }
         }
@@ -527,13 +554,14 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         if (!o.sets.empty()) {
             throw ScenarioError(o.from, 0, 0, "--set cannot change a snapshot's scenario");
         }
-        if (!o.input.empty()) {
-            throw ScenarioError(o.from, 0, 0, "--input cannot add to a snapshot's recorded inputs");
+        if (snapshot->frames.empty()) {
+            throw ReplayError(o.from, snapshot->validBytes, "holds no whole frame to resume from");
         }
         // Bullet's and Box2D's contact caches and sleep timers are not theirs to give away, so a snapshot
         // resumes by simulating its frames again (checked against its hashes), not by loading state
         src.replay = snapshot;
         src.resume = snapshot->frames.size();
+        src.replayPath = o.from;
         return simulate(catalog, o, src);
     }
     if (o.scenario.empty()) {
@@ -565,12 +593,8 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
     src.sets = replay.header.overrides;
     src.replay = file;
     src.verify = o.verify;
-    try {
-        return simulate(catalog, o, src);
-    } catch (const ScenarioError& e) {
-        // the scenario inside the replay: a damaged or foreign file, not the user's scenario
-        throw ReplayError(o.scenario, 0, std::string("its scenario does not load here: ") + e.what());
-    }
+    src.replayPath = o.scenario;
+    return simulate(catalog, o, src);
 }
 
 void addScenarioOptions(CLI::App* cmd, RunOptions& o) {

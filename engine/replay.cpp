@@ -4,7 +4,9 @@
 #include "engine/dump.h"
 #include "engine/hash.h"
 
+#include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -18,6 +20,8 @@ namespace {
 
 constexpr char kMagic[8] = {'T', 'U', 'M', 'B', 'L', 'E', 'R', 'P'};
 constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+constexpr std::uint64_t kMaxReplayBytes = 1ull << 30;
+constexpr std::size_t kMaxNameBytes = 256; ///< entity names are at most 64 characters, kinds a few words
 
 std::uint64_t checksum(const std::string& bytes) {
     Hasher h;
@@ -102,6 +106,15 @@ private:
     std::size_t m_at = 0;
 };
 
+/// A recorded number: finite and within the scenario loader's bounds.
+double getNumber(Cursor& c, const char* what) {
+    const double v = c.get<double>(what);
+    if (!std::isfinite(v) || std::abs(v) > 1e9) {
+        c.fail(std::string(what) + " is not a finite number within +-1e9");
+    }
+    return v;
+}
+
 EventDef getEvent(Cursor& c) {
     EventDef ev;
     ev.step = c.get<std::uint64_t>("an event's step");
@@ -110,13 +123,13 @@ EventDef getEvent(Cursor& c) {
     const std::uint32_t n = c.count("an event's values", sizeof(double));
     ev.value.resize(n);
     for (double& v : ev.value) {
-        v = c.get<double>("an event's value");
+        v = getNumber(c, "an event's value");
     }
     for (double& p : ev.position) {
-        p = c.get<double>("an event's position");
+        p = getNumber(c, "an event's position");
     }
-    ev.radius = c.get<double>("an event's radius");
-    ev.amount = c.get<double>("an event's amount");
+    ev.radius = getNumber(c, "an event's radius");
+    ev.amount = getNumber(c, "an event's amount");
     return ev;
 }
 
@@ -157,7 +170,7 @@ std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vecto
 ReplayWriter::ReplayWriter(const std::string& path, const ReplayHeader& header) : m_path(path) {
     m_file = std::fopen(path.c_str(), "wb");
     if (!m_file) {
-        throw ReplayError(path, 0, std::string("cannot be written: ") + std::strerror(errno));
+        throw std::runtime_error("cannot write the replay " + path + ": " + std::strerror(errno));
     }
     std::string payload;
     putString(payload, header.buildId);
@@ -245,18 +258,28 @@ void ReplayWriter::finish() {
     std::fclose(m_file);
     m_file = nullptr;
     if (!ok) {
-        throw ReplayError(m_path, 0, "could not be written completely (disk full?)");
+        throw std::runtime_error("the replay " + m_path + " could not be written completely (disk full?)");
     }
 }
 
 // ---- reading
 
 ReplayFile readReplay(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        throw ReplayError(path, 0, std::filesystem::exists(path, ec) ? "is not a regular file" : "no such file");
+    }
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec || size > kMaxReplayBytes) {
+        throw ReplayError(path, 0, "is larger than a replay may be (1 GiB)");
+    }
     std::ifstream in(path, std::ios::binary);
     if (!in) {
         throw ReplayError(path, 0, "cannot be read");
     }
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string bytes(static_cast<std::size_t>(size), '\0');
+    in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    bytes.resize(static_cast<std::size_t>(in.gcount()));
     ReplayFile file;
     file.fileBytes = bytes.size();
     Cursor top(path, bytes, 0);
@@ -298,7 +321,6 @@ ReplayFile readReplay(const std::string& path) {
     at += 8;
     file.validBytes = at;
 
-    std::vector<std::pair<std::string, std::string>> names; // by id: name, kind
     while (at < bytes.size()) {
         const std::size_t left = bytes.size() - at;
         if (left >= 4 && std::memcmp(bytes.data() + at, "ENDR", 4) == 0) {
@@ -354,11 +376,15 @@ ReplayFile readReplay(const std::string& path) {
         const std::uint32_t declared = c.count("the chunk's names", 12);
         for (std::uint32_t i = 0; i < declared; ++i) {
             const auto id = c.get<std::uint32_t>("a name's id");
-            if (id != names.size()) {
+            if (id != file.names.size()) {
                 c.fail("name ids out of order");
             }
             std::string name = c.string("a name");
-            names.emplace_back(std::move(name), c.string("a kind"));
+            std::string kind = c.string("a kind");
+            if (name.size() > kMaxNameBytes || kind.size() > kMaxNameBytes) {
+                c.fail("an entity's name or kind is longer than any entity's can be");
+            }
+            file.names.emplace_back(std::move(name), std::move(kind));
         }
         for (std::uint32_t f = 0; f < frames; ++f) {
             FrameRecord rec;
@@ -370,10 +396,10 @@ ReplayFile readReplay(const std::string& path) {
             const std::uint32_t entities = c.count("a frame's entities", 12);
             for (std::uint32_t k = 0; k < entities; ++k) {
                 const auto id = c.get<std::uint32_t>("an entity's id");
-                if (id >= names.size()) {
+                if (id >= file.names.size()) {
                     c.fail("entity id " + std::to_string(id) + " was never named");
                 }
-                rec.entities.push_back({names[id].first, names[id].second, c.get<std::uint64_t>("an entity's hash")});
+                rec.entities.push_back({{}, {}, c.get<std::uint64_t>("an entity's hash"), id});
             }
             file.frames.push_back(std::move(rec));
         }

@@ -37,9 +37,10 @@ public:
 
 /// One entity's state hash after a frame.
 struct EntityHash {
-    std::string name;
+    std::string name; ///< when written; a replay as read keeps names once, in ReplayFile::names
     std::string kind; ///< the dump kind(s) of its components, '+'-joined
     std::uint64_t hash = 0;
+    std::uint32_t id = 0; ///< as read: the index of its name and kind in ReplayFile::names
 };
 
 /// What happened in one frame: the events applied at its steps, and the state it left.
@@ -62,6 +63,7 @@ struct ReplayHeader {
 struct ReplayFile {
     ReplayHeader header;
     std::vector<FrameRecord> frames;
+    std::vector<std::pair<std::string, std::string>> names; ///< entity name and kind, by id
     bool complete = false;      ///< ended with the end marker
     std::uint64_t validBytes = 0; ///< bytes up to the last whole chunk
     std::uint64_t fileBytes = 0;
@@ -104,7 +106,7 @@ private:
 };
 
 /// Reads a whole replay; throws ReplayError for a damaged file (a file cut short is not damaged: it ends
-/// at its last whole chunk, with complete = false).
+/// at its last whole chunk, with complete = false), one that is not a regular file, or one above 1 GiB.
 ReplayFile readReplay(const std::string& path);
 
 /// The state hash and, for every named entity with simulated state, its own hash.

@@ -110,7 +110,11 @@ TEST(Replay, AnAlteredScenarioDivergesAndIsNamed) {
     const std::string altered = test::tempPath("altered2.tumble");
     {
         ReplayWriter w(altered, header);
-        for (const FrameRecord& f : file.frames) {
+        for (FrameRecord f : file.frames) {
+            for (EntityHash& e : f.entities) {
+                e.name = file.names[e.id].first; // as read, names are kept once in the file's table
+                e.kind = file.names[e.id].second;
+            }
             w.frame(f);
         }
         w.finish();
@@ -175,6 +179,40 @@ TEST(Replay, ExternalInputIsAppliedAndRecordedLikeScriptedEvents) {
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_NE(r.err.find("bad.jsonl:1"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("did you mean 'chain'"), std::string::npos) << r.err;
+}
+
+TEST(Replay, HostileFilesAreRefusedNotTrusted) {
+    // not a regular file, a snapshot with no whole frame, and an event filed under the wrong frame
+    auto r = test::runTumble({"replay", "/dev/zero", "--no-render", "--out", test::tempPath("h_out")});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+    const std::string path = recordPendulum("hostile.tumble", 150);
+    const ReplayFile file = readReplay(path);
+    {
+        ReplayWriter w(test::tempPath("short.tumble"), file.header);
+    }
+    r = test::runTumble({"run", "--from", test::tempPath("short.tumble"), "--no-render", "--out",
+                         test::tempPath("h2_out")});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    const std::string misfiled = test::tempPath("misfiled.tumble");
+    {
+        ReplayWriter w(misfiled, file.header);
+        for (std::size_t i = 0; i < file.frames.size(); ++i) {
+            FrameRecord f = file.frames[i];
+            for (EntityHash& e : f.entities) {
+                e.name = file.names[e.id].first;
+                e.kind = file.names[e.id].second;
+            }
+            if (!f.events.empty()) {
+                f.events[0].step += 7; // now filed under the wrong frame
+            }
+            w.frame(f);
+        }
+        w.finish();
+    }
+    r = test::runTumble({"replay", misfiled, "--verify", "--no-render", "--out", test::tempPath("h3_out")});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find("is filed under frame"), std::string::npos) << r.err;
 }
 
 TEST(Replay, ASnapshotResumesToTheSameBits) {
