@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -19,6 +20,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <tuple>
 
 namespace tumble {
 
@@ -97,6 +99,9 @@ struct RunOptions {
     std::optional<std::int64_t> snapshotAt; ///< --snapshot-at N
     std::string from;                      ///< --from SNAPSHOT
     bool verify = false;                   ///< replay --verify
+    std::optional<double> physicsMs;       ///< budget --physics-ms
+    std::optional<double> scale;           ///< budget --scale
+    std::string chart;                     ///< budget --chart FILE (SVG)
 };
 
 /// Where a run's scenario and events come from, and what it holds itself to.
@@ -597,6 +602,122 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
     return simulate(catalog, o, src);
 }
 
+/// An SVG chart of physics time per frame, with the budget (and the budget times the scale) as lines.
+std::string budgetChart(const std::vector<float>& ms, double budget, double scale, const std::string& title) {
+    const double width = 800.0, height = 320.0, left = 60.0, right = 20.0, top = 30.0, bottom = 40.0;
+    double highest = budget * std::max(scale, 1.0) * 1.2;
+    for (float v : ms) {
+        highest = std::max(highest, double(v) * 1.05);
+    }
+    auto x = [&](std::size_t i) {
+        return left + (width - left - right) * (ms.size() > 1 ? double(i) / double(ms.size() - 1) : 0.0);
+    };
+    auto y = [&](double v) { return top + (height - top - bottom) * (1.0 - v / highest); };
+    char buf[256];
+    std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"800\" height=\"320\" "
+                      "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"800\" height=\"320\" "
+                      "fill=\"white\"/>\n";
+    std::snprintf(buf, sizeof buf, "<text x=\"%g\" y=\"18\">%s: physics ms per frame</text>\n", left,
+                  title.c_str());
+    svg += buf;
+    // axes and a few labelled ticks
+    std::snprintf(buf, sizeof buf, "<path d=\"M%g %g V%g H%g\" stroke=\"black\" fill=\"none\"/>\n", left, top,
+                  height - bottom, width - right);
+    svg += buf;
+    for (int k = 0; k <= 4; ++k) {
+        const double v = highest * k / 4.0;
+        std::snprintf(buf, sizeof buf, "<text x=\"%g\" y=\"%g\" text-anchor=\"end\">%.2f</text>\n", left - 6,
+                      y(v) + 4, v);
+        svg += buf;
+    }
+    std::snprintf(buf, sizeof buf, "<text x=\"%g\" y=\"%g\" text-anchor=\"middle\">frame (%zu)</text>\n",
+                  (left + width - right) / 2, height - 10, ms.size());
+    svg += buf;
+    for (const auto& [v, colour, label] :
+         {std::tuple{budget, "#c0392b", "budget"}, std::tuple{budget * scale, "#e67e22", "budget x scale"}}) {
+        if (label == std::string("budget x scale") && scale == 1.0) {
+            continue;
+        }
+        std::snprintf(buf, sizeof buf,
+                      "<path d=\"M%g %g H%g\" stroke=\"%s\" stroke-dasharray=\"6 4\"/>\n<text x=\"%g\" "
+                      "y=\"%g\" fill=\"%s\" text-anchor=\"end\">%s %.2f ms</text>\n",
+                      left, y(v), width - right, colour, width - right, y(v) - 4, colour, label, v);
+        svg += buf;
+    }
+    svg += "<polyline fill=\"none\" stroke=\"#2c6fbb\" stroke-width=\"1\" points=\"";
+    for (std::size_t i = 0; i < ms.size(); ++i) {
+        std::snprintf(buf, sizeof buf, "%.1f,%.1f ", x(i), y(double(ms[i])));
+        svg += buf;
+    }
+    svg += "\"/>\n</svg>\n";
+    return svg;
+}
+
+/// `tumble budget`: runs a scenario without rendering and holds its physics p99 to its budget.
+int commandBudget(const Catalog& catalog, const RunOptions& o) {
+    const std::string path = resolveScenario(o.scenario);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets);
+    const SceneDef& scene = sim.scene();
+    const double budget = o.physicsMs.value_or(scene.physicsBudgetMs);
+    double scale = 1.0;
+    if (o.scale) {
+        scale = *o.scale;
+    } else if (const char* env = std::getenv("TUMBLE_BUDGET_SCALE"); env && *env) {
+        char* end = nullptr;
+        scale = std::strtod(env, &end);
+        if (end == env || *end != '\0' || !(scale > 0.0) || !std::isfinite(scale)) {
+            throw ScenarioError("TUMBLE_BUDGET_SCALE", 0, 0, std::string("'") + env + "' is not a number above 0");
+        }
+    }
+    sim.profiler().setPhysicsBudgetMs(budget);
+    const std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
+    std::optional<OutputFile> chart;
+    if (!o.chart.empty()) {
+        chart.emplace(o.chart);
+    }
+    ProgressBar bar(frames, scene.frameSeconds(), !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
+    while (sim.frame() < frames) {
+        sim.runFrame();
+        sim.takeAppliedEvents();
+        bar.update(sim.frame());
+    }
+    bar.finish(sim.frame());
+    const FrameStats f = sim.profiler().frameStats();
+    const double limit = budget * scale;
+    const bool over = f.physicsP99Ms > limit;
+    std::printf("budget of '%s': %llu frames without rendering, physics budget %.3f ms a frame", scene.name.c_str(),
+                static_cast<unsigned long long>(sim.frame()), budget);
+    if (scale != 1.0) {
+        std::printf(" (x %.3g scale: %.3f ms)", scale, limit);
+    }
+    if (scene.stress) {
+        std::printf("; a stress scene, beyond the 8 ms every other scene keeps to");
+    }
+    std::printf("\n\n%-18s %-6s %9s %9s %9s\n", "system", "phase", "p50 ms", "p99 ms", "max ms");
+    for (const SlotStats& st : sim.profiler().slotStats()) {
+        if (st.isPhase || st.phase != Phase::Fixed || st.calls == 0) {
+            continue;
+        }
+        std::printf("%-18s %-6s %9.3f %9.3f %9.3f\n", st.name.c_str(), std::string(phaseName(st.phase)).c_str(), st.p50Ms, st.p99Ms,
+                    st.maxMs);
+    }
+    std::printf("%-18s %-6s %9.3f %9.3f %9.3f   %s\n", "physics a frame", "", f.physicsP50Ms, f.physicsP99Ms,
+                f.physicsMaxMs, over ? "OVER BUDGET" : "within budget");
+    std::printf("frames over the budget: %llu of %llu\n", static_cast<unsigned long long>(f.overBudgetFrames),
+                static_cast<unsigned long long>(sim.frame()));
+    if (chart) {
+        chart->write(budgetChart(sim.profiler().physicsHistory(), budget, scale, scene.name));
+        chart->close();
+        std::printf("wrote %s\n", chart->path().c_str());
+    }
+    if (over) {
+        std::fprintf(stderr, "tumble: '%s' is over its physics budget: p99 %.3f ms a frame > %.3f ms\n",
+                     scene.name.c_str(), f.physicsP99Ms, limit);
+        return kExitOverBudget;
+    }
+    return kExitOk;
+}
+
 void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("scenario", o.scenario, "A scenario file (.toml) or a demo name (see `tumble list`)")
         ->required();
@@ -718,12 +839,28 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
                     "goes on from there")
         ->type_name("SNAPSHOT");
 
+    CLI::App* budgetCmd = app.add_subcommand(
+        "budget", "Run a scenario without rendering and hold its physics p99 to its budget (exit 3 when over)");
+    addScenarioOptions(budgetCmd, o);
+    budgetCmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
+        ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)));
+    budgetCmd->add_option("--physics-ms", o.physicsMs, "The budget, ms of physics a frame (default: [budget] physics_ms)")
+        ->check(CLI::Range(1e-6, 1e6));
+    budgetCmd->add_option("--scale", o.scale,
+                          "Room for a slower machine: fail only above budget x S (default: $TUMBLE_BUDGET_SCALE, "
+                          "else 1)")
+        ->check(CLI::Range(1e-6, 1e6));
+    budgetCmd->add_option("--chart", o.chart, "Write an SVG chart of physics time per frame with the budget line")
+        ->type_name("FILE");
+    budgetCmd->add_flag("--quiet", o.quiet, "No progress bar");
+    budgetCmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+
     // an unknown verb is named, rather than CLI11's "a subcommand is required"
     if (argc >= 2 && argv[1][0] != '-') {
         const std::string verb = argv[1];
         const auto verbs = app.get_subcommands([](CLI::App*) { return true; });
         if (std::none_of(verbs.begin(), verbs.end(), [&](CLI::App* v) { return v->get_name() == verb; })) {
-            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check, run and replay\n"
+            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check, run, replay and budget\n"
                       << "Run `tumble --help` for usage.\n";
             return kExitBadInput;
         }
@@ -749,6 +886,9 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
         }
         if (replay->parsed()) {
             return commandReplay(catalog, o);
+        }
+        if (budgetCmd->parsed()) {
+            return commandBudget(catalog, o);
         }
         return commandRun(catalog, o);
     } catch (const ScenarioError& e) {

@@ -59,6 +59,16 @@ void Profiler::endFrame() {
     keepTraceEvent({-1, m_frame, m_frameStartNs, end - m_frameStartNs});
 }
 
+std::vector<float> Profiler::physicsHistory() const {
+    const auto& r = m_physics;
+    if (r.samples.size() < m_capacity) {
+        return r.samples;
+    }
+    std::vector<float> out(r.samples.begin() + std::ptrdiff_t(r.next), r.samples.end());
+    out.insert(out.end(), r.samples.begin(), r.samples.begin() + std::ptrdiff_t(r.next));
+    return out;
+}
+
 void Profiler::keepTraceEvent(const TraceEvent& e) noexcept {
     if (!m_trace || m_traceTruncated) {
         return;

@@ -72,6 +72,8 @@ public:
 
     std::vector<SlotStats> slotStats() const;
     FrameStats frameStats() const;
+    /// Physics ms of each frame still in the ring, oldest first.
+    std::vector<float> physicsHistory() const;
     double budgetMs() const { return static_cast<double>(m_budgetNs) * 1e-6; }
 
     /// Writes Chrome trace-event JSON (the "traceEvents" object form): one complete event per timed scope,

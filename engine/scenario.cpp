@@ -183,6 +183,7 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
     if (const toml::table* t = section("budget")) {
         TableReader b(*t, "[budget]", ctx);
         scene.physicsBudgetMs = b.number("physics_ms", scene.physicsBudgetMs, 1e-3, 1e6);
+        scene.stress = b.boolean("stress", false);
         b.finish();
     }
     if (const toml::table* t = section("camera")) {

@@ -23,6 +23,7 @@ struct SceneDef {
     int velocityIterations = 8; ///< Box2D's velocity iterations per step
     int positionIterations = 3; ///< Box2D's position iterations per step
     double physicsBudgetMs = 8.0; ///< per frame, held to p99 by `tumble budget`
+    bool stress = false;          ///< [budget] stress = true: a scene that shows where the budget breaks
     std::array<double, 3> cameraEye{0.0, 1.5, 5.0};
     std::array<double, 3> cameraTarget{0.0, 1.0, 0.0};
     double cameraFovDeg = 45.0;

@@ -33,14 +33,14 @@ std::vector<json> jsonLines(const std::string& text) {
 }
 
 TEST(Cli, HelpForEveryVerb) {
-    for (const char* verb : {"list", "check", "run"}) {
+    for (const char* verb : {"list", "check", "run", "replay", "budget"}) {
         const auto r = runTumble({verb, "--help"});
         EXPECT_EQ(r.exitCode, 0) << verb << ": " << r.err;
         EXPECT_NE(r.out.find("Usage"), std::string::npos) << verb;
     }
     const auto top = runTumble({"--help"});
     EXPECT_EQ(top.exitCode, 0);
-    for (const char* verb : {"list", "check", "run"}) {
+    for (const char* verb : {"list", "check", "run", "replay", "budget"}) {
         EXPECT_NE(top.out.find(verb), std::string::npos) << verb;
     }
     const auto run = runTumble({"run", "--help"});
@@ -254,6 +254,27 @@ TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
     const auto lines = jsonLines(readFile(dump));
     ASSERT_GE(lines.size(), 2u) << "the initial state and the frame it stopped at";
     EXPECT_EQ(lines.back()["frame"], p["frames"]) << "the last line is the frame where it stopped";
+}
+
+TEST(Cli, BudgetFailsASceneMadeDeliberatelySlowAndPassesAGenerousOne) {
+    // the curtain held to a microsecond of physics a frame: over budget, exit 3, said so
+    const std::string chart = tempPath("budget.svg");
+    auto r = runTumble({"budget", "curtain", "--frames", "20", "--physics-ms", "0.001", "--scale", "1", "--quiet",
+                        "--chart", chart});
+    EXPECT_EQ(r.exitCode, 3) << r.err;
+    EXPECT_NE(r.err.find("over its physics budget"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("springs"), std::string::npos) << "a table of every system" << r.out;
+    EXPECT_NE(r.out.find("OVER BUDGET"), std::string::npos) << r.out;
+    const std::string svg = readFile(chart);
+    EXPECT_NE(svg.find("<svg"), std::string::npos);
+    EXPECT_NE(svg.find("polyline"), std::string::npos);
+    // a second a frame is room enough for anything here
+    r = runTumble({"budget", "curtain", "--frames", "20", "--physics-ms", "1000", "--scale", "1", "--quiet"});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("within budget"), std::string::npos) << r.out;
+    // the scale from the environment, checked
+    r = runTumble({"budget", "curtain", "--frames", "2", "--quiet"}, {"TUMBLE_BUDGET_SCALE=fast"});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
 }
 
 } // namespace

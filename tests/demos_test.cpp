@@ -63,6 +63,16 @@ TEST_P(Demo, RendersAFrameWithSomethingInItAndItsReplayVerifies) {
     EXPECT_GT(differ, std::size_t(w) * std::size_t(h) / 200) << png;
 }
 
+TEST_P(Demo, DeclaresABudgetWithinHalfAFrameUnlessAStressScene) {
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + GetParam() + ".toml";
+    auto sim = test::simulate(test::readFile(path));
+    const std::string text = test::readFile(path);
+    EXPECT_NE(text.find("physics_ms"), std::string::npos) << "every demo declares its [budget] physics_ms";
+    if (!sim->scene().stress) {
+        EXPECT_LE(sim->scene().physicsBudgetMs, 8.0) << "half a 60 fps frame";
+    }
+}
+
 TEST_P(Demo, NameMatchesItsFile) {
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + GetParam() + ".toml";
     EXPECT_EQ(peekScene(path, readScenarioFile(path)).name, GetParam());
