@@ -1,6 +1,7 @@
 #include "engine/cli.h"
 
 #include "engine/dump.h"
+#include "engine/fixed_loop.h"
 #include "engine/progress.h"
 #include "engine/replay.h"
 #include "engine/render_output.h"
@@ -20,6 +21,8 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <chrono>
+#include <thread>
 #include <tuple>
 
 namespace tumble {
@@ -99,6 +102,7 @@ struct RunOptions {
     std::optional<std::int64_t> snapshotAt; ///< --snapshot-at N
     std::string from;                      ///< --from SNAPSHOT
     bool verify = false;                   ///< replay --verify
+    bool realtime = false;                 ///< run --realtime
     std::optional<double> physicsMs;       ///< budget --physics-ms
     std::optional<double> scale;           ///< budget --scale
     std::string chart;                     ///< budget --chart FILE (SVG)
@@ -444,12 +448,26 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     }
     bool interrupted = false;
     std::size_t reported = 0, noted = 0;
+    // --realtime: one frame per frame period of the wall clock; the loop takes the steps the time since the
+    // last frame completes, at most `substeps`, and drops the rest (and counts it)
+    const SteadyClock clock;
+    const std::int64_t periodNs = secondsToNs(scene.frameSeconds());
+    const std::int64_t startNs = clock.nowNs();
     while (sim.frame() < frames) {
         if (g_interrupted.load()) {
             interrupted = true;
             break;
         }
-        sim.runFrame();
+        if (o.realtime) {
+            sim.runFrameAt(clock);
+            const std::int64_t next = startNs + periodNs * static_cast<std::int64_t>(sim.frame());
+            const std::int64_t wait = next - clock.nowNs();
+            if (wait > 0) {
+                std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
+            }
+        } else {
+            sim.runFrame();
+        }
         if (!afterFrame()) {
             break;
         }
@@ -525,6 +543,14 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
             std::fprintf(stderr, "wrote %s\n", w.c_str());
         }
     }
+    if (o.realtime && !o.quiet) {
+        std::fprintf(stderr,
+                     "realtime: %llu frames in %.3f s of wall time, %.3f s simulated; at most %d steps a frame "
+                     "(the cap); %.3f s of simulated time dropped because physics ran over its frame\n",
+                     static_cast<unsigned long long>(sim.frame()),
+                     static_cast<double>(clock.nowNs() - startNs) * 1e-9, sim.time(), sim.mostStepsInAFrame(),
+                     sim.droppedSeconds());
+    }
     if (!diverged.empty()) {
         std::fprintf(stderr, "tumble: %s\n", diverged.c_str());
         return kExitDiverged;
@@ -547,6 +573,13 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
 }
 
 int commandRun(const Catalog& catalog, const RunOptions& o) {
+    if (o.realtime && (!o.record.empty() || o.snapshotAt || !o.from.empty())) {
+        // paced by the clock, a run drops time and takes a varying number of steps a frame: nothing it
+        // records could be re-simulated frame for frame
+        throw ScenarioError("--realtime", 0, 0,
+                            "--realtime cannot go with --record, --snapshot-at or --from: a run paced by the "
+                            "clock drops time, so it cannot be played back frame for frame");
+    }
     Source src;
     if (!o.from.empty()) {
         if (!o.scenario.empty()) {
@@ -824,6 +857,9 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
         cmd->add_flag("--quiet", o.quiet, "No progress bar and no summary");
         cmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
     }
+    run->add_flag("--realtime", o.realtime,
+                  "Pace to the wall clock at the scene's frame rate; when physics runs over its frame, at most "
+                  "`substeps` steps are taken and the rest of the time is dropped (and counted)");
     run->add_option("--input", o.input,
                     "Timed actions to apply, as JSON Lines: {\"frame\": 120, \"entity\": \"crate\", "
                     "\"action\": \"impulse\", \"value\": [0, 5, 0]} (or \"t\": seconds); recorded like "

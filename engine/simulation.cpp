@@ -43,25 +43,36 @@ Simulation::Simulation(const Catalog& catalog, const std::string& path, std::str
 }
 
 void Simulation::runFrame() {
+    // headless: exactly one frame period per frame, so exactly `substeps` steps; the frame ends exactly on
+    // a step and is drawn as that step left it (alpha 1)
+    const Tick tick = m_loop.advance(m_loop.stepNs() * m_scenario.scene.substeps);
+    runSteps(tick.steps, 1.0);
+}
+
+void Simulation::runFrameAt(const Clock& clock) {
+    const Tick tick = m_loop.advanceTo(clock);
+    m_droppedNs += tick.droppedNs;
+    // a loop paced by a clock draws one step behind, at leftover / step between the last two
+    runSteps(tick.steps, tick.alpha);
+}
+
+void Simulation::runSteps(int steps, double alpha) {
     const SceneDef& scene = m_scenario.scene;
     m_profiler.beginFrame(m_frame);
     StepContext ctx;
     ctx.dt = scene.dt;
     ctx.seed = scene.seed;
     ctx.frame = m_frame;
-    // headless: exactly one frame period per frame, so exactly `substeps` steps
-    const Tick tick = m_loop.advance(m_loop.stepNs() * scene.substeps);
-    for (int i = 0; i < tick.steps; ++i) {
+    for (int i = 0; i < steps; ++i) {
         ctx.step = m_step;
         ctx.time = static_cast<double>(m_step) * scene.dt;
         m_schedule.run(Phase::Input, m_world, ctx);
         m_schedule.run(Phase::Fixed, m_world, ctx);
         ++m_step;
     }
+    m_mostSteps = std::max(m_mostSteps, steps);
     ctx.time = time();
-    // a headless frame ends exactly on a step (no leftover time), so it is drawn as that step left it:
-    // alpha 1. A loop paced by a clock draws one step behind, at leftover / step between the last two.
-    ctx.alpha = 1.0;
+    ctx.alpha = alpha;
     m_schedule.run(Phase::Frame, m_world, ctx);
     m_profiler.endFrame();
     ++m_frame;

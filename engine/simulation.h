@@ -33,8 +33,14 @@ public:
     Simulation(const Catalog& catalog, const std::string& path, std::string text,
                const std::vector<std::string>& overrides);
 
-    /// Advance one frame.
+    /// Advance one frame: exactly `substeps` fixed steps (headless, deterministic).
     void runFrame();
+    /// Advance one frame paced by a clock: the steps the time since the last call completes, at most
+    /// `substeps` (time beyond that is dropped and counted); the frame is drawn between the last two steps.
+    void runFrameAt(const Clock& clock);
+    /// Real time dropped so far by runFrameAt, s, and the most steps any one frame took.
+    double droppedSeconds() const { return static_cast<double>(m_droppedNs) * 1e-9; }
+    int mostStepsInAFrame() const { return m_mostSteps; }
 
     /// Replaces the events still to come (resolved, sorted by step) with these: a replay's recorded ones.
     void setEvents(std::vector<EventDef> events);
@@ -66,6 +72,9 @@ private:
     Scenario m_scenario;
     FixedLoop m_loop;
     std::uint64_t m_frame = 0;
+    std::int64_t m_droppedNs = 0;
+    int m_mostSteps = 0;
+    void runSteps(int steps, double alpha);
     std::uint64_t m_step = 0;
 };
 

@@ -277,5 +277,22 @@ TEST(Cli, BudgetFailsASceneMadeDeliberatelySlowAndPassesAGenerousOne) {
     EXPECT_EQ(r.exitCode, 2) << r.err;
 }
 
+TEST(Cli, RealtimeNeverTakesMoreThanTheCappedStepsAFrame) {
+    // a 150 x 150 implicit cloth at four steps a frame: far more physics than a 60 fps frame holds, so the
+    // loop must cap the steps, drop time, and say so
+    const auto r = runTumble({"run", "curtain", "--realtime", "--frames", "12", "--no-render", "--out",
+                              tempPath("rt"), "--set", "curtain.cloth.rows=150", "--set", "curtain.cloth.cols=150",
+                              "--set", "scene.dt=0.004166666667", "--set", "scene.substeps=4"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("at most 4 steps a frame"), std::string::npos) << r.err;
+    const std::size_t at = r.err.find("s of simulated time dropped");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    const std::size_t from = r.err.rfind(' ', r.err.rfind(' ', at) - 1) + 1;
+    EXPECT_GT(std::stod(r.err.substr(from)), 0.0) << r.err;
+    // and it records nothing: a run paced by the clock cannot be replayed frame for frame
+    const auto refused = runTumble({"run", "pendulum", "--realtime", "--record", tempPath("rt.tumble")});
+    EXPECT_EQ(refused.exitCode, 2) << refused.err;
+}
+
 } // namespace
 } // namespace tumble
