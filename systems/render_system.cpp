@@ -447,6 +447,19 @@ void drawColliders(World& world, Renderer& r, double alpha) {
     });
 }
 
+/// Draws r.clothVertices (position and normal per corner, in world space) as lit triangles of one colour.
+void drawSurfaceVertices(Renderer& r, const std::array<float, 4>& colour) {
+    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
+    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
+    glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, colour.data());
+    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
+    glBindVertexArray(r.clothVao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
+                 GL_STREAM_DRAW);
+    glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
+}
+
 /// A water surface: its height field as a lit, two-sided surface with normals from the slopes.
 void drawWater(const Water& w, Renderer& r) {
     r.clothVertices.clear();
@@ -469,16 +482,7 @@ void drawWater(const Water& w, Renderer& r) {
             }
         }
     }
-    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
-    const std::array<float, 4> colour{0.20f, 0.45f, 0.75f, 1.0f};
-    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
-    glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, colour.data());
-    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
-    glBindVertexArray(r.clothVao);
-    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
-    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
-                 GL_STREAM_DRAW);
-    glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
+    drawSurfaceVertices(r, {0.20f, 0.45f, 0.75f, 1.0f});
 }
 
 /// A network with surface triangles (cloth, the outside of a soft body), lit, with smooth normals.
@@ -499,15 +503,7 @@ void drawSurface(const SpringNetwork& net, const std::vector<Vec3>& x, Renderer&
             pushVertex(r.clothVertices, x[i], len > 0 ? r.normals[i] * (1.0 / len) : Vec3{0, 0, 1});
         }
     }
-    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
-    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
-    glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, colour.data());
-    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
-    glBindVertexArray(r.clothVao);
-    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
-    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
-                 GL_STREAM_DRAW);
-    glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
+    drawSurfaceVertices(r, colour);
 }
 
 void drawLines(Renderer& r) {

@@ -9,6 +9,7 @@
 #include "systems/spring_forces.h"
 #include "systems/spring_integrators.h"
 #include "systems/spring_system.h"
+#include "tests/bench/bench_support.h"
 
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Sparse>
@@ -22,12 +23,7 @@ namespace tumble {
 namespace {
 
 const Catalog& catalog() {
-    static const Catalog c = [] {
-        Catalog out;
-        registerBuiltinSystems(out);
-        return out;
-    }();
-    return c;
+    return bench::builtinCatalog();
 }
 
 void curtainStep(benchmark::State& state, std::vector<std::string> overrides, int warmFrames,

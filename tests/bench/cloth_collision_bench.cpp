@@ -9,6 +9,7 @@
 #include "systems/builtin.h"
 #include "systems/cloth_collision.h"
 #include "systems/spring_system.h"
+#include "tests/bench/bench_support.h"
 
 #include <benchmark/benchmark.h>
 
@@ -18,12 +19,7 @@ namespace tumble {
 namespace {
 
 const Catalog& catalog() {
-    static const Catalog c = [] {
-        Catalog out;
-        registerBuiltinSystems(out);
-        return out;
-    }();
-    return c;
+    return bench::builtinCatalog();
 }
 
 std::unique_ptr<Simulation> curtain(std::vector<std::string> overrides) {

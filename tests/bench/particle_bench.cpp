@@ -7,6 +7,7 @@
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/particle_system.h"
+#include "tests/bench/bench_support.h"
 
 #include <benchmark/benchmark.h>
 
@@ -22,11 +23,7 @@ struct MillionScene {
 };
 
 MillionScene steadyMillion() {
-    static const Catalog catalog = [] {
-        Catalog c;
-        registerBuiltinSystems(c);
-        return c;
-    }();
+    const Catalog& catalog = bench::builtinCatalog();
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/million.toml";
     MillionScene s{
         std::make_unique<Simulation>(catalog, path, readScenarioFile(path), std::vector<std::string>{}),

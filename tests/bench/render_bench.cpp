@@ -11,6 +11,7 @@
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/render_system.h"
+#include "tests/bench/bench_support.h"
 
 #include <GLES3/gl3.h>
 #include <benchmark/benchmark.h>
@@ -23,11 +24,7 @@ namespace tumble {
 namespace {
 
 std::unique_ptr<Simulation> billowingCurtain(bool render) {
-    static const Catalog catalog = [] {
-        Catalog c;
-        registerBuiltinSystems(c);
-        return c;
-    }();
+    const Catalog& catalog = bench::builtinCatalog();
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
     auto sim =
         std::make_unique<Simulation>(catalog, path, readScenarioFile(path), std::vector<std::string>{});

@@ -7,6 +7,7 @@
 #include "engine/replay.h"
 #include "engine/simulation.h"
 #include "systems/builtin.h"
+#include "tests/bench/bench_support.h"
 
 #include <benchmark/benchmark.h>
 
@@ -19,11 +20,7 @@ namespace {
 constexpr int kFrames = 240;
 
 std::unique_ptr<Simulation> curtain() {
-    static const Catalog catalog = [] {
-        Catalog c;
-        registerBuiltinSystems(c);
-        return c;
-    }();
+    const Catalog& catalog = bench::builtinCatalog();
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
     return std::make_unique<Simulation>(catalog, path, readScenarioFile(path), std::vector<std::string>{});
 }

@@ -11,8 +11,9 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "engine/simulation.h"
-#include "systems/bullet_bridge.h"
 #include "systems/builtin.h"
+#include "systems/bullet_bridge.h"
+#include "tests/bench/bench_support.h"
 
 #include <benchmark/benchmark.h>
 #include <box2d/box2d.h>
@@ -29,12 +30,7 @@ constexpr int kSteps = 120;
 constexpr double kDt = 1.0 / 60.0;
 
 const Catalog& catalog() {
-    static const Catalog c = [] {
-        Catalog cat;
-        registerBuiltinSystems(cat);
-        return cat;
-    }();
-    return c;
+    return bench::builtinCatalog();
 }
 
 std::unique_ptr<Simulation> load(const std::string& text) {

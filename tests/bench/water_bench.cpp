@@ -5,6 +5,7 @@
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/water_system.h"
+#include "tests/bench/bench_support.h"
 
 #include <benchmark/benchmark.h>
 
@@ -12,11 +13,7 @@ namespace tumble {
 namespace {
 
 void BM_Water256Step(benchmark::State& state) {
-    static const Catalog catalog = [] {
-        Catalog c;
-        registerBuiltinSystems(c);
-        return c;
-    }();
+    const Catalog& catalog = bench::builtinCatalog();
     const std::string text = R"([scene]
 name = "w"
 [[entity]]
