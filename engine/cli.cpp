@@ -453,6 +453,7 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     const SteadyClock clock;
     const std::int64_t periodNs = secondsToNs(scene.frameSeconds());
     const std::int64_t startNs = clock.nowNs();
+    std::int64_t nextFrameNs = startNs;
     while (sim.frame() < frames) {
         if (g_interrupted.load()) {
             interrupted = true;
@@ -460,8 +461,10 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
         }
         if (o.realtime) {
             sim.runFrameAt(clock);
-            const std::int64_t next = startNs + periodNs * static_cast<std::int64_t>(sim.frame());
-            const std::int64_t wait = next - clock.nowNs();
+            // the next frame one period on; after an overrun, one period from now (no burst of catch-up
+            // frames that would each take no step)
+            nextFrameNs = std::max(nextFrameNs + periodNs, clock.nowNs());
+            const std::int64_t wait = nextFrameNs - clock.nowNs();
             if (wait > 0) {
                 std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
             }
@@ -546,10 +549,10 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     if (o.realtime && !o.quiet) {
         std::fprintf(stderr,
                      "realtime: %llu frames in %.3f s of wall time, %.3f s simulated; at most %d steps a frame "
-                     "(the cap); %.3f s of simulated time dropped because physics ran over its frame\n",
+                     "(the cap is %d); %.3f s of simulated time dropped because physics ran over its frame\n",
                      static_cast<unsigned long long>(sim.frame()),
                      static_cast<double>(clock.nowNs() - startNs) * 1e-9, sim.time(), sim.mostStepsInAFrame(),
-                     sim.droppedSeconds());
+                     scene.substeps, sim.droppedSeconds());
     }
     if (!diverged.empty()) {
         std::fprintf(stderr, "tumble: %s\n", diverged.c_str());
@@ -698,8 +701,9 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     } else if (const char* env = std::getenv("TUMBLE_BUDGET_SCALE"); env && *env) {
         char* end = nullptr;
         scale = std::strtod(env, &end);
-        if (end == env || *end != '\0' || !(scale > 0.0) || !std::isfinite(scale)) {
-            throw ScenarioError("TUMBLE_BUDGET_SCALE", 0, 0, std::string("'") + env + "' is not a number above 0");
+        if (end == env || *end != '\0' || !(scale >= 1e-6 && scale <= 1e6)) {
+            throw ScenarioError("TUMBLE_BUDGET_SCALE", 0, 0,
+                                std::string("'") + env + "' is not a number from 1e-6 to 1e6 (as --scale)");
         }
     }
     sim.profiler().setPhysicsBudgetMs(budget);
@@ -726,7 +730,8 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     if (scene.stress) {
         std::printf("; a stress scene, beyond the 8 ms every other scene keeps to");
     }
-    std::printf("\n\n%-18s %-6s %9s %9s %9s\n", "system", "phase", "p50 ms", "p99 ms", "max ms");
+    std::printf("\n\n%-18s %-6s %9s %9s %9s   (a step each; %d step%s a frame)\n", "system", "phase", "p50 ms",
+                "p99 ms", "max ms", scene.substeps, scene.substeps == 1 ? "" : "s");
     for (const SlotStats& st : sim.profiler().slotStats()) {
         if (st.isPhase || st.phase != Phase::Fixed || st.calls == 0) {
             continue;

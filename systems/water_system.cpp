@@ -16,8 +16,15 @@ namespace {
 
 constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of the CFL limit at most
 constexpr int kMaxNodes = 2048;    ///< per side
+constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22;  ///< all surfaces: 4M (2048 x 2048)
+constexpr double kMaxNodeStepsPerStep = 1e8; ///< wave-step node updates in one fixed step
 
-void loadWater(TableReader& r, World& world, Entity entity, const SceneDef&) {
+/// Water nodes loaded so far in the scene (a load-time tally).
+struct WaterNodes {
+    std::size_t count = 0;
+};
+
+void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
     Water w;
     const auto cells = r.vector<2>("cells", {64.0, 64.0}, 3.0, double(kMaxNodes));
     if (cells[0] != std::floor(cells[0]) || cells[1] != std::floor(cells[1])) {
@@ -38,6 +45,23 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef&) {
                                                                                  : WaterBorder::Absorb;
     w.centre = world.get<Transform>(entity).position;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+    // bounded work and memory: wave steps a fixed step from the CFL limit, nodes across the scene
+    const double courant = w.waveSpeed * scene.dt * std::sqrt(1.0 / (w.dx() * w.dx()) + 1.0 / (w.dz() * w.dz()));
+    const double substeps = std::ceil(courant / kCflSafety);
+    if (substeps * double(n) > kMaxNodeStepsPerStep) {
+        r.fail("wave_speed", "this grid would need " + std::to_string(std::int64_t(substeps)) +
+                                 " wave steps (CFL) of " + std::to_string(n) +
+                                 " nodes every fixed step; make the cells larger, the waves slower or dt smaller");
+    }
+    WaterNodes* total = world.tryResource<WaterNodes>();
+    if (!total) {
+        total = &world.setResource<WaterNodes>();
+    }
+    total->count += n;
+    if (total->count > kMaxNodesInAScene) {
+        r.fail("cells", "the scene's water surfaces have more than " + std::to_string(kMaxNodesInAScene) +
+                            " nodes in all");
+    }
     w.h.assign(n, 0.0);
     w.v.assign(n, 0.0);
     w.occupied.assign(n, 0.0);
@@ -49,7 +73,7 @@ void waveStep(Water& w, double dt) {
     const int nx = w.nx, nz = w.nz;
     const double ax = w.waveSpeed * w.waveSpeed / (w.dx() * w.dx());
     const double az = w.waveSpeed * w.waveSpeed / (w.dz() * w.dz());
-    const double keep = 1.0 - dt * w.damping;
+    const double keep = std::exp(-dt * w.damping); // exact decay: stable at any damping
     double* h = w.h.data();
     double* v = w.v.data();
     for (int k = 0; k < nz; ++k) {
@@ -142,6 +166,38 @@ bool columnOf(const RigidBody& b, double x, double z, double halfDx, double half
     return true;
 }
 
+/// The smallest half size of a body: its moment of inertia is at least 0.4 m r^2 with r this.
+double smallestHalfExtent(const RigidBody& b) {
+    switch (b.shape) {
+    case ShapeKind::Sphere:
+    case ShapeKind::Capsule:
+    case ShapeKind::Cylinder:
+        return b.shape == ShapeKind::Cylinder ? std::min(b.radius, 0.5 * b.height) : b.radius;
+    case ShapeKind::Box:
+        return std::min({b.halfExtents.x, b.halfExtents.y, b.halfExtents.z});
+    default: {
+        const Vec3 d = b.mesh ? (b.mesh->hi - b.mesh->lo) * 0.5 : Vec3{0.5, 0.5, 0.5};
+        return std::min({d.x, d.y, d.z});
+    }
+    }
+}
+
+/// How far a body reaches from its centre, horizontally at most.
+double reachOf(const RigidBody& b) {
+    switch (b.shape) {
+    case ShapeKind::Sphere:
+        return b.radius;
+    case ShapeKind::Box:
+        return length(b.halfExtents);
+    case ShapeKind::Capsule:
+        return b.radius + 0.5 * b.height;
+    case ShapeKind::Cylinder:
+        return length(Vec3{b.radius, 0.5 * b.height, b.radius});
+    default:
+        return b.mesh ? std::max(length(b.mesh->lo), length(b.mesh->hi)) : 1.0;
+    }
+}
+
 /// The volume of a body, for the share of it under water.
 double bodyVolume(const RigidBody& b) {
     switch (b.shape) {
@@ -169,11 +225,13 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
             return;
         }
         // the nodes under the body's horizontal reach
-        const double reach = b.shape == ShapeKind::Sphere ? b.radius : 2.0 * std::max({b.halfExtents.x, b.halfExtents.z, b.radius, b.height});
-        const int i0 = std::max(0, int(std::floor((b.position.x - reach - w.nodeX(0)) / w.dx())));
-        const int i1 = std::min(w.nx - 1, int(std::ceil((b.position.x + reach - w.nodeX(0)) / w.dx())));
-        const int k0 = std::max(0, int(std::floor((b.position.z - reach - w.nodeZ(0)) / w.dz())));
-        const int k1 = std::min(w.nz - 1, int(std::ceil((b.position.z + reach - w.nodeZ(0)) / w.dz())));
+        const double reach = reachOf(b);
+        // node indices, clamped in double first (a body far away must not overflow an int)
+        auto index = [](double at, int last) { return int(std::clamp(at, -1.0, double(last) + 1.0)); };
+        const int i0 = std::max(0, index(std::floor((b.position.x - reach - w.nodeX(0)) / w.dx()), w.nx));
+        const int i1 = std::min(w.nx - 1, index(std::ceil((b.position.x + reach - w.nodeX(0)) / w.dx()), w.nx));
+        const int k0 = std::max(0, index(std::floor((b.position.z - reach - w.nodeZ(0)) / w.dz()), w.nz));
+        const int k1 = std::min(w.nz - 1, index(std::ceil((b.position.z + reach - w.nodeZ(0)) / w.dz()), w.nz));
         double volume = 0.0;
         Vec3 centre;
         for (int k = k0; k <= k1; ++k) {
@@ -203,11 +261,13 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         // motion through the water, in proportion to how much of the body is in it
         const Vec3 lift = gravity * (-w.density * volume);
         const double share = std::min(1.0, volume / bodyVolume(b));
-        const Vec3 drag = b.linearVelocity * (-w.bodyDrag * share * b.mass);
-        const Vec3 j = (lift + drag) * dt;
-        b.impulse += j;
+        // drag as the exact decay of the step (stable at any strength): the velocity through the water, and
+        // the turning (against the smallest moment of inertia the body could have, so never overshooting)
+        const double decay = 1.0 - std::exp(-w.bodyDrag * share * dt);
+        b.impulse += lift * dt - b.linearVelocity * (decay * b.mass);
         b.angularImpulse += cross(centre - b.position, lift * dt);
-        b.angularImpulse += b.angularVelocity * (-w.bodyDrag * share * b.mass * reach * reach * 0.2 * dt);
+        const double smallest = smallestHalfExtent(b);
+        b.angularImpulse -= b.angularVelocity * (decay * 0.4 * b.mass * smallest * smallest);
     });
     // the water a body pushes aside as it sinks in leaves the nodes under it and raises the free surface
     // everywhere else by as much in all (and flows back as the body rises): the volume is kept, and the dent
