@@ -29,6 +29,7 @@ struct Water {
     std::vector<double> h;        ///< m, height above the rest level, nx * nz, row (fixed z) by row
     std::vector<double> v;        ///< m/s, dh/dt
     std::vector<double> occupied; ///< m, per node: the submerged length of bodies there, last step
+    std::vector<double> occupying; ///< scratch: the same this step (kept to spare an allocation a step)
     std::uint32_t substeps = 1;   ///< wave steps per fixed step (more when dt breaks the CFL limit)
 
     double dx() const { return sizeX / double(nx - 1); }

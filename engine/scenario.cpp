@@ -19,9 +19,6 @@ namespace {
 constexpr double kHuge = 1e9; // bound on coordinates, m
 constexpr std::string_view kSections[] = {"scene", "budget", "camera", "render"};
 // components of the scenario format (CONTRACT.md) that arrive with later work
-// the components of CONTRACT.md: a build whose catalog lacks one says so rather than "unknown key"
-constexpr std::string_view kPlanned[] = {"springs", "cloth", "softbody", "emitter", "rigid_body", "rigid_body_2d",
-                                         "water", "force_field"};
 
 bool validName(std::string_view s) {
     if (s.empty() || s.size() > 64) {
@@ -314,11 +311,6 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
             }
             const ComponentLoader* loader = catalog.findComponent(key);
             if (!loader) {
-                if (std::find(std::begin(kPlanned), std::end(kPlanned), key) != std::end(kPlanned)) {
-                    ctx.fail(&v, where + ": the '" + key +
-                                     "' component is part of the scenario format but not implemented in this "
-                                     "build yet");
-                }
                 std::vector<std::string> known = catalog.componentKeys();
                 known.insert(known.end(), {"name", "transform", "repeat", "scatter"});
                 const std::string near = nearestName(key, known);

@@ -196,7 +196,13 @@ void coplanarity(const Vec3 x[4], const Vec3 d[4], double c[4]) {
 
 class Solver {
 public:
-    Solver(std::vector<Mesh>& meshes, double dt) : m_meshes(meshes), m_dt(dt) {}
+    /// The pairs go into scratch kept from step to step (no allocation a step once it has grown).
+    Solver(std::vector<Mesh>& meshes, std::vector<std::array<std::uint32_t, 2>>& pairs,
+           std::vector<VertexTriangle>& vt, std::vector<EdgeEdge>& ee)
+        : m_meshes(meshes), m_pairs(pairs), m_vt(vt), m_ee(ee) {
+        m_vt.clear();
+        m_ee.clear();
+    }
 
     void gather() {
         for (std::uint32_t m = 0; m < m_meshes.size(); ++m) {
@@ -525,10 +531,17 @@ private:
     }
 
     std::vector<Mesh>& m_meshes;
-    double m_dt;
-    std::vector<std::array<std::uint32_t, 2>> m_pairs;
-    std::vector<VertexTriangle> m_vt;
-    std::vector<EdgeEdge> m_ee;
+    std::vector<std::array<std::uint32_t, 2>>& m_pairs;
+    std::vector<VertexTriangle>& m_vt;
+    std::vector<EdgeEdge>& m_ee;
+};
+
+/// What one step of the system leaves for the next to reuse: the lists it fills.
+struct ClothScratch {
+    std::vector<Mesh> meshes;
+    std::vector<std::array<std::uint32_t, 2>> pairs;
+    std::vector<VertexTriangle> vt;
+    std::vector<EdgeEdge> ee;
 };
 
 } // namespace
@@ -607,7 +620,10 @@ bool trianglesIntersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Ve
 }
 
 void collideCloth(World& world, const StepContext& ctx) {
-    std::vector<Mesh> meshes;
+    ClothScratch* kept = world.tryResource<ClothScratch>();
+    ClothScratch& scratch = kept ? *kept : world.setResource<ClothScratch>();
+    std::vector<Mesh>& meshes = scratch.meshes;
+    meshes.clear();
     world.view<SpringNetwork>().each([&](Entity e, SpringNetwork& net) {
         if (!net.selfCollision || net.frozen || net.triangles.empty()) {
             return;
@@ -686,7 +702,7 @@ void collideCloth(World& world, const StepContext& ctx) {
             ++cc.rebuilds;
         }
     }
-    Solver solver(meshes, ctx.dt);
+    Solver solver(meshes, scratch.pairs, scratch.vt, scratch.ee);
     solver.gather();
     // pushing one pair apart can press another together: a few passes of each; the crossings stopped
     // keep only a small gap, so the repulsion passes come again after them

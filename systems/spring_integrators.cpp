@@ -30,15 +30,22 @@ void symplecticEuler(SpringNetwork& net, SpringWorkspace& w, const Environment& 
     }
 }
 
+/// A Runge-Kutta trial state a time h on from the start along the slope (v, a): xs = x + v h, vs = v0 + a h.
+void trialState(const SpringNetwork& net, const std::vector<Vec3>& v, const std::vector<Vec3>& a, double h,
+                std::vector<Vec3>& xs, std::vector<Vec3>& vs) {
+    const std::size_t n = net.x.size();
+    xs.resize(n);
+    vs.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        xs[i] = net.x[i] + v[i] * h;
+        vs[i] = net.v[i] + a[i] * h;
+    }
+}
+
 void midpoint(SpringNetwork& net, SpringWorkspace& w, const Environment& env, double h) {
     const std::size_t n = net.x.size();
-    w.xs.resize(n);
-    w.v2.resize(n);
     accelerations(net, w, env, net.x, net.v, w.a1);
-    for (std::size_t i = 0; i < n; ++i) {
-        w.xs[i] = net.x[i] + net.v[i] * (0.5 * h);
-        w.v2[i] = net.v[i] + w.a1[i] * (0.5 * h);
-    }
+    trialState(net, net.v, w.a1, 0.5 * h, w.xs, w.v2);
     accelerations(net, w, env, w.xs, w.v2, w.a2);
     for (std::size_t i = 0; i < n; ++i) {
         net.x[i] += w.v2[i] * h;
@@ -48,26 +55,13 @@ void midpoint(SpringNetwork& net, SpringWorkspace& w, const Environment& env, do
 
 void rk4(SpringNetwork& net, SpringWorkspace& w, const Environment& env, double h) {
     const std::size_t n = net.x.size();
-    w.xs.resize(n);
-    w.v2.resize(n);
-    w.v3.resize(n);
-    w.v4.resize(n);
     // stage k: slope (v_k, a_k) evaluated at (xs, v_k)
     accelerations(net, w, env, net.x, net.v, w.a1);
-    for (std::size_t i = 0; i < n; ++i) {
-        w.xs[i] = net.x[i] + net.v[i] * (0.5 * h);
-        w.v2[i] = net.v[i] + w.a1[i] * (0.5 * h);
-    }
+    trialState(net, net.v, w.a1, 0.5 * h, w.xs, w.v2);
     accelerations(net, w, env, w.xs, w.v2, w.a2);
-    for (std::size_t i = 0; i < n; ++i) {
-        w.xs[i] = net.x[i] + w.v2[i] * (0.5 * h);
-        w.v3[i] = net.v[i] + w.a2[i] * (0.5 * h);
-    }
+    trialState(net, w.v2, w.a2, 0.5 * h, w.xs, w.v3);
     accelerations(net, w, env, w.xs, w.v3, w.a3);
-    for (std::size_t i = 0; i < n; ++i) {
-        w.xs[i] = net.x[i] + w.v3[i] * h;
-        w.v4[i] = net.v[i] + w.a3[i] * h;
-    }
+    trialState(net, w.v3, w.a3, h, w.xs, w.v4);
     accelerations(net, w, env, w.xs, w.v4, w.a4);
     for (std::size_t i = 0; i < n; ++i) {
         net.x[i] += (net.v[i] + (w.v2[i] + w.v3[i]) * 2.0 + w.v4[i]) * (h / 6.0);

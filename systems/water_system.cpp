@@ -218,7 +218,8 @@ double bodyVolume(const RigidBody& b) {
 
 /// Buoyancy, drag and displacement between one water surface and the moving bodies in it.
 void couple(World& world, Water& w, const Vec3& gravity, double dt) {
-    std::vector<double> now(w.h.size(), 0.0);
+    std::vector<double>& now = w.occupying;
+    now.assign(w.h.size(), 0.0);
     const double area = w.dx() * w.dz();
     world.view<RigidBody>().each([&](Entity, RigidBody& b) {
         if (!b.dynamic() || b.frozen) {
