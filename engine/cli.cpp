@@ -106,6 +106,7 @@ struct RunOptions {
     std::optional<double> physicsMs;       ///< budget --physics-ms
     std::optional<double> scale;           ///< budget --scale
     std::string chart;                     ///< budget --chart FILE (SVG)
+    std::int64_t memoryCapMiB = std::int64_t(kDefaultMemoryCap >> 20); ///< --memory-cap MIB
 };
 
 /// Where a run's scenario and events come from, and what it holds itself to.
@@ -117,6 +118,7 @@ struct Source {
     bool verify = false;             ///< compare every frame's hash with the replay's
     std::uint64_t resume = 0;        ///< --from: frames re-simulated (and checked) before the run proper
     std::string replayPath;          ///< the replay or snapshot file, for messages
+    std::uint64_t memoryCap = kDefaultMemoryCap; ///< bytes the scene may ask for (--memory-cap)
 };
 
 int commandList() {
@@ -148,7 +150,7 @@ int commandList() {
 
 int commandCheck(const Catalog& catalog, const RunOptions& o) {
     const std::string path = resolveScenario(o.scenario);
-    Simulation sim(catalog, path, readScenarioFile(path), o.sets);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets, std::uint64_t(o.memoryCapMiB) << 20);
     return kExitOk;
 }
 
@@ -282,10 +284,10 @@ std::string describeDivergence(std::uint64_t frame, const ReplayFile& file, cons
 /// naming the replay).
 std::unique_ptr<Simulation> load(const Catalog& catalog, const Source& src) {
     if (!src.replay) {
-        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets);
+        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets, src.memoryCap);
     }
     try {
-        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets);
+        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets, src.memoryCap);
     } catch (const ScenarioError& e) {
         throw ReplayError(src.replayPath, 0, std::string("its scenario does not load here: ") + e.what());
     }
@@ -584,6 +586,7 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
                             "clock drops time, so it cannot be played back frame for frame");
     }
     Source src;
+    src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
     if (!o.from.empty()) {
         if (!o.scenario.empty()) {
             throw ScenarioError(o.from, 0, 0, "--from resumes the snapshot's own scenario: give no scenario with it");
@@ -629,6 +632,7 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
                      replay.header.buildId.c_str(), buildId());
     }
     Source src;
+    src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
     src.path = replay.header.scenarioPath;
     src.text = replay.header.scenarioText;
     src.sets = replay.header.overrides;
@@ -692,7 +696,7 @@ std::string budgetChart(const std::vector<float>& ms, double budget, double scal
 /// `tumble budget`: runs a scenario without rendering and holds its physics p99 to its budget.
 int commandBudget(const Catalog& catalog, const RunOptions& o) {
     const std::string path = resolveScenario(o.scenario);
-    Simulation sim(catalog, path, readScenarioFile(path), o.sets);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets, std::uint64_t(o.memoryCapMiB) << 20);
     const SceneDef& scene = sim.scene();
     const double budget = o.physicsMs.value_or(scene.physicsBudgetMs);
     double scale = 1.0;
@@ -756,6 +760,14 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     return kExitOk;
 }
 
+void addMemoryCapOption(CLI::App* cmd, RunOptions& o) {
+    cmd->add_option("--memory-cap", o.memoryCapMiB,
+                    "Refuse, at load, a scene whose components would need more memory than this, in MiB "
+                    "(default 4096)")
+        ->check(CLI::Range(std::int64_t(1), std::int64_t(1) << 24))
+        ->type_name("MIB");
+}
+
 void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("scenario", o.scenario, "A scenario file (.toml) or a demo name (see `tumble list`)")
         ->required();
@@ -764,6 +776,7 @@ void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
                     "(repeatable)")
         ->allow_extra_args(false)
         ->type_name("KEY=VALUE");
+    addMemoryCapOption(cmd, o);
 }
 
 } // namespace
@@ -831,6 +844,7 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
                      "Compare every frame's state with the recording; exit 4 naming the first frame and entity "
                      "that differ");
     for (CLI::App* cmd : {run, replay}) {
+        addMemoryCapOption(cmd, o);
         cmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames; a replay's own)")
             ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
         cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");

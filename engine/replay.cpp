@@ -16,18 +16,19 @@
 
 namespace tumble {
 
-namespace {
-
-constexpr char kMagic[8] = {'T', 'U', 'M', 'B', 'L', 'E', 'R', 'P'};
-constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
-constexpr std::uint64_t kMaxReplayBytes = 1ull << 30;
-constexpr std::size_t kMaxNameBytes = 256; ///< entity names are at most 64 characters, kinds a few words
-
-std::uint64_t checksum(const std::string& bytes) {
+std::uint64_t replayChecksum(const std::string& bytes) {
     Hasher h;
     h.bytes(bytes.data(), bytes.size());
     return h.digest();
 }
+
+namespace {
+
+constexpr auto checksum = replayChecksum;
+constexpr char kMagic[8] = {'T', 'U', 'M', 'B', 'L', 'E', 'R', 'P'};
+constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+constexpr std::uint64_t kMaxReplayBytes = 1ull << 30;
+constexpr std::size_t kMaxNameBytes = 256; ///< entity names are at most 64 characters, kinds a few words
 
 // ---- writing
 
@@ -280,6 +281,13 @@ ReplayFile readReplay(const std::string& path) {
     std::string bytes(static_cast<std::size_t>(size), '\0');
     in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     bytes.resize(static_cast<std::size_t>(in.gcount()));
+    return parseReplay(path, bytes);
+}
+
+ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
+    if (bytes.size() > kMaxReplayBytes) {
+        throw ReplayError(path, 0, "is larger than a replay may be (1 GiB)");
+    }
     ReplayFile file;
     file.fileBytes = bytes.size();
     Cursor top(path, bytes, 0);

@@ -109,6 +109,12 @@ private:
 /// at its last whole chunk, with complete = false), one that is not a regular file, or one above 1 GiB.
 ReplayFile readReplay(const std::string& path);
 
+/// The same, from the file's bytes: `path` is what messages call it.
+ReplayFile parseReplay(const std::string& path, const std::string& bytes);
+
+/// The checksum the header, each chunk's payload and the end marker's count carry.
+std::uint64_t replayChecksum(const std::string& bytes);
+
 /// The state hash and, for every named entity with simulated state, its own hash.
 std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities);
 

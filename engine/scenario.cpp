@@ -198,6 +198,10 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
         scene.renderWidth = static_cast<int>(r.integer("width", scene.renderWidth, 16, 8192));
         scene.renderHeight = static_cast<int>(r.integer("height", scene.renderHeight, 16, 8192));
         scene.background = r.vector<3>("background", scene.background, 0.0, 1.0);
+        // the frame buffers (colour and depth), the read-back frame and the PNG's rows
+        r.charge("width", std::uint64_t(scene.renderWidth) * std::uint64_t(scene.renderHeight) * 24u,
+                 "[render] (" + std::to_string(scene.renderWidth) + " x " + std::to_string(scene.renderHeight) +
+                     " frames)");
         r.finish();
     }
 }
@@ -600,13 +604,14 @@ std::string readScenarioFile(const std::string& path) {
 }
 
 Scenario loadScenario(const Catalog& catalog, const std::string& path, std::string text,
-                      const std::vector<std::string>& overrides, World& world) {
+                      const std::vector<std::string>& overrides, World& world, std::uint64_t memoryCap) {
     Scenario sc;
     sc.path = path;
     sc.text = std::move(text);
     sc.overrides = overrides;
     LoadContext ctx;
     ctx.file = path;
+    ctx.memoryCap = memoryCap;
 
     if (sc.text.size() > Limits::kMaxFileBytes) {
         throw ScenarioError(path, 0, 0,

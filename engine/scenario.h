@@ -35,8 +35,10 @@ std::string readScenarioFile(const std::string& path);
 
 /// Parses, applies overrides, validates, and creates the scenario's entities in the world.
 /// Throws ScenarioError for the first problem. The world is left partly filled on error.
+/// `memoryCap` bounds the memory the scene's components may ask for (LoadContext::charge).
 Scenario loadScenario(const Catalog& catalog, const std::string& path, std::string text,
-                      const std::vector<std::string>& overrides, World& world);
+                      const std::vector<std::string>& overrides, World& world,
+                      std::uint64_t memoryCap = kDefaultMemoryCap);
 
 /// Reads only [scene] name and description, for `tumble list`. Throws ScenarioError.
 SceneDef peekScene(const std::string& path, const std::string& text);

@@ -27,9 +27,9 @@ void applyEvents(World& world, const StepContext& ctx, const Catalog& catalog) {
 } // namespace
 
 Simulation::Simulation(const Catalog& catalog, const std::string& path, std::string text,
-                       const std::vector<std::string>& overrides)
+                       const std::vector<std::string>& overrides, std::uint64_t memoryCap)
     : m_catalog(catalog), m_schedule(m_profiler),
-      m_scenario(loadScenario(catalog, path, std::move(text), overrides, m_world)),
+      m_scenario(loadScenario(catalog, path, std::move(text), overrides, m_world, memoryCap)),
       m_loop(secondsToNs(m_scenario.scene.dt), m_scenario.scene.substeps) {
     m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
     m_world.setResource<SceneDef>(m_scenario.scene);

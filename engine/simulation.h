@@ -29,9 +29,9 @@ struct EventQueue {
 /// One scenario running in one world; see the header comment.
 class Simulation {
 public:
-    /// Loads the scenario (throws ScenarioError) and builds the schedule.
+    /// Loads the scenario (throws ScenarioError), under a memory cap in bytes, and builds the schedule.
     Simulation(const Catalog& catalog, const std::string& path, std::string text,
-               const std::vector<std::string>& overrides);
+               const std::vector<std::string>& overrides, std::uint64_t memoryCap = kDefaultMemoryCap);
 
     /// Advance one frame: exactly `substeps` fixed steps (headless, deterministic).
     void runFrame();

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <sstream>
 
 namespace tumble {
@@ -46,6 +48,28 @@ std::size_t editDistance(std::string_view a, std::string_view b) {
 ScenarioError::ScenarioError(std::string file, int line, int column, const std::string& message)
     : std::runtime_error(formatLocation(file, line, column) + ": " + message), m_file(std::move(file)),
       m_line(line), m_column(column), m_message(message) {}
+
+namespace {
+std::string formatBytes(std::uint64_t bytes) {
+    char text[32];
+    if (bytes >= (1ull << 30)) {
+        std::snprintf(text, sizeof text, "%.1f GiB", double(bytes) / double(1ull << 30));
+    } else {
+        std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / double(1ull << 20));
+    }
+    return text;
+}
+} // namespace
+
+void LoadContext::charge(const toml::node* at, std::uint64_t bytes, const std::string& what) const {
+    const std::uint64_t before = memoryCharged;
+    memoryCharged = before + std::min(bytes, std::numeric_limits<std::uint64_t>::max() - before);
+    if (memoryCharged > memoryCap) {
+        fail(at, what + " needs about " + formatBytes(bytes) + ", so the scene would need about " +
+                     formatBytes(memoryCharged) + ", above the memory cap of " + formatBytes(memoryCap) +
+                     " (--memory-cap MiB raises it)");
+    }
+}
 
 void LoadContext::fail(const toml::node* at, const std::string& message) const {
     if (at) {
@@ -136,6 +160,11 @@ const toml::node* TableReader::node(std::string_view key) {
 void TableReader::fail(std::string_view key, const std::string& message) const {
     const toml::node* n = m_table.get(key);
     m_ctx.fail(n ? n : &m_table, message);
+}
+
+void TableReader::charge(std::string_view key, std::uint64_t bytes, const std::string& what) const {
+    const toml::node* n = m_table.get(key);
+    m_ctx.charge(n ? n : &m_table, bytes, what);
 }
 
 double TableReader::toNumber(const toml::node& n, std::string_view key, double lo, double hi) const {

@@ -35,10 +35,20 @@ private:
     std::string m_message;
 };
 
-/// What the readers of one scenario share: its path and which nodes came from --set overrides.
+/// The memory cap a scenario is loaded under (README "Resource limits"): 4 GiB unless --memory-cap says.
+inline constexpr std::uint64_t kDefaultMemoryCap = 4ull << 30;
+
+/// What the readers of one scenario share: its path, which nodes came from --set overrides, and the memory
+/// the scene's components will take, which loaders tally before they allocate.
 struct LoadContext {
     std::string file;                                    ///< shown in every message
     std::map<const toml::node*, std::string> overrideOf; ///< node -> the "--set KEY=VALUE" that made it
+    std::uint64_t memoryCap = kDefaultMemoryCap;         ///< bytes the whole scene may ask for
+    mutable std::uint64_t memoryCharged = 0;             ///< bytes asked for so far
+
+    /// Adds `bytes` (what: "cloth 'curtain' (1225 masses, ...)") to the scene's tally; throws ScenarioError
+    /// located at the node, saying how much was asked for, when the tally passes the cap.
+    void charge(const toml::node* at, std::uint64_t bytes, const std::string& what) const;
 
     /// Throws ScenarioError located at the node (or at its override).
     [[noreturn]] void fail(const toml::node* at, const std::string& message) const;
@@ -100,6 +110,8 @@ public:
 
     /// Fail at a key's value (or at the table when the key is absent).
     [[noreturn]] void fail(std::string_view key, const std::string& message) const;
+    /// LoadContext::charge, located at the key (or at the table when it is absent).
+    void charge(std::string_view key, std::uint64_t bytes, const std::string& what) const;
     /// Fail at a node inside this table.
     [[noreturn]] void failAt(const toml::node& at, const std::string& message) const {
         m_ctx.fail(&at, message);

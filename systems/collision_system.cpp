@@ -12,7 +12,6 @@ namespace tumble {
 
 namespace {
 
-constexpr double kHuge = 1e9;
 // projections per step: a point wedged between two bodies converges towards their corner by the square of
 // the cosine of the wedge angle each pass; eight passes bring a 60 degree wedge within 1e-6 of it
 constexpr int kContactPasses = 8;

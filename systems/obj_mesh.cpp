@@ -14,13 +14,37 @@ namespace fs = std::filesystem;
 
 namespace {
 constexpr std::size_t kMaxVertices = 1u << 20;
+constexpr std::uint64_t kMaxObjBytes = 256ull << 20;
+constexpr std::size_t kMaxHullVertices = 4096;
 } // namespace
 
 std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std::string& displayName) {
-    std::ifstream in(file);
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) {
+        throw std::runtime_error(displayName + ": not a regular file");
+    }
+    const auto size = fs::file_size(file, ec);
+    if (ec || size > kMaxObjBytes) {
+        throw std::runtime_error(displayName + ": larger than a mesh may be (" + std::to_string(kMaxObjBytes >> 20) +
+                                 " MiB)");
+    }
+    std::ifstream in(file, std::ios::binary);
     if (!in) {
         throw std::runtime_error(displayName + ": cannot be read");
     }
+    // at most one byte past the limit: the file may have grown since it was measured
+    std::string text(static_cast<std::size_t>(kMaxObjBytes) + 1, '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxObjBytes) {
+        throw std::runtime_error(displayName + ": larger than a mesh may be (" + std::to_string(kMaxObjBytes >> 20) +
+                                 " MiB)");
+    }
+    return parseObjMesh(text, displayName);
+}
+
+std::shared_ptr<const ShapeMesh> parseObjMesh(const std::string& text, const std::string& displayName) {
+    std::istringstream in(text);
     auto mesh = std::make_shared<ShapeMesh>();
     mesh->path = displayName;
     std::string line;
@@ -94,6 +118,12 @@ std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
     auto fail = [&](int line, const std::string& what) {
         throw std::runtime_error(file.path + (line ? ":" + std::to_string(line) : "") + ": " + what);
     };
+    // the check below tests every vertex against every face; a hull is a few hundred points at most (Bullet
+    // keeps every point of a btConvexHullShape and visits them all in each support query)
+    if (file.vertices.size() > kMaxHullVertices) {
+        fail(0, "a convex shape has at most " + std::to_string(kMaxHullVertices) + " vertices (this one has " +
+                    std::to_string(file.vertices.size()) + "); use shape = \"mesh\" for a static one");
+    }
     // closed and wound outward: the signed volume of the tetrahedra from the origin is positive; its
     // centroid is the body's centre of mass
     double volume = 0.0;

@@ -11,8 +11,12 @@
 
 namespace tumble {
 
-/// Reads an OBJ file. Throws std::runtime_error naming file:line and the problem.
+/// Reads an OBJ file (a regular file of at most 256 MiB). Throws std::runtime_error naming file:line and
+/// the problem.
 std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std::string& displayName);
+
+/// The same, from the file's text: `displayName` is what messages call it.
+std::shared_ptr<const ShapeMesh> parseObjMesh(const std::string& text, const std::string& displayName);
 
 /// A convex body's mesh from a file's: checked to be a closed convex hull wound outward (else
 /// std::runtime_error naming the file and the face's line), moved so that its centre of mass (uniform

@@ -18,6 +18,9 @@ namespace {
 
 constexpr double kHuge = 1e9;
 
+/// What one body costs in its engine (the body, its shape, its broad-phase proxy and contacts), roughly.
+constexpr std::uint64_t kBodyBytes = 2048;
+
 /// Meshes already read, by file, so that 300 rocks share one.
 struct MeshCache {
     std::map<std::string, std::shared_ptr<const ShapeMesh>> byFile; ///< "convex:" or "mesh:" + file
@@ -40,6 +43,9 @@ std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world, bool con
     }
     try {
         auto mesh = readObjMesh(file, name);
+        // Bullet's copy of the triangles and its bounding-volume tree over them, beside ours
+        r.charge("mesh", mesh->triangles.size() * 200u + mesh->vertices.size() * 48u,
+                 "mesh '" + name + "' (" + std::to_string(mesh->triangles.size()) + " triangles)");
         return cache->byFile[key] = convex ? convexHullMesh(*mesh) : mesh;
     } catch (const std::exception& e) {
         r.fail("mesh", e.what());
@@ -54,6 +60,7 @@ void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&)
     if (world.has<RigidBody2D>(entity)) {
         r.fail("shape", "an entity is a rigid_body (3D) or a rigid_body_2d, not both");
     }
+    r.charge("shape", kBodyBytes, r.where());
     RigidBody b;
     const std::string shape =
         r.choice("shape", "box", {"plane", "box", "sphere", "capsule", "cylinder", "convex", "mesh"});
@@ -159,6 +166,7 @@ std::vector<Vec2> readPolygon(TableReader& r) {
 }
 
 void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    r.charge("shape", kBodyBytes, r.where());
     if (world.has<RigidBody>(entity)) {
         r.fail("shape", "an entity is a rigid_body (3D) or a rigid_body_2d, not both");
     }

@@ -128,7 +128,7 @@ SpringNetwork buildCloth(const ClothDef& def) {
 SpringNetwork buildSoftBody(const SoftBodyDef& def) {
     SpringNetwork net;
     net.kind = NetworkKind::SoftBody;
-    const auto [nx, ny, nz] = def.resolution;
+    const int nx = def.resolution[0], ny = def.resolution[1], nz = def.resolution[2];
     auto at = [&](int i, int j, int k) { return static_cast<std::uint32_t>((k * ny + j) * nx + i); };
     for (int k = 0; k < nz; ++k) {
         for (int j = 0; j < ny; ++j) {

@@ -82,7 +82,16 @@ Vec3 readVec3(TableReader& r, const toml::node& n, std::string_view key) {
     return {v[0], v[1], v[2]};
 }
 
-void attach(World& world, Entity entity, SpringNetwork net) {
+/// Charges the network's memory to the scene (what a step of its integrator will allocate too), then gives
+/// it to the entity. Bytes per mass and per link were measured: peak RSS of 400x400 cloths and a 50^3 soft
+/// body over two steps (implicit: the matrix blocks, the multigrid levels and the CG vectors).
+void attach(TableReader& r, World& world, Entity entity, SpringNetwork net) {
+    const bool implicit = net.integrator == Integrator::ImplicitEuler;
+    const std::uint64_t bytes = net.x.size() * (implicit ? 600u : 200u) + net.links.size() * (implicit ? 350u : 80u) +
+                                (net.selfCollision ? net.triangles.size() * 300u : 0u);
+    r.charge("", bytes,
+             r.where() + " (" + std::to_string(net.x.size()) + " masses, " + std::to_string(net.links.size()) +
+                 " springs" + (implicit ? ", implicit" : "") + ")");
     world.emplace<SpringNetwork>(entity, std::move(net));
     world.emplace<SpringWorkspace>(entity);
 }
@@ -147,7 +156,7 @@ void loadSprings(TableReader& r, World& world, Entity entity, const SceneDef&) {
             net.links.push_back(s);
         }
     }
-    attach(world, entity, std::move(net));
+    attach(r, world, entity, std::move(net));
 }
 
 /// [entity.rope]: a chain of masses (an extension of CONTRACT.md's format).
@@ -178,7 +187,7 @@ void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
         "'first', 'both', 'none'");
     SpringNetwork net = buildRope(def);
     readCommon(r, net, "implicit_euler");
-    attach(world, entity, std::move(net));
+    attach(r, world, entity, std::move(net));
 }
 
 /// [entity.cloth] (CONTRACT.md).
@@ -225,7 +234,15 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scen
     if (selfCollision && net.thickness <= 0.0) {
         r.fail("thickness", "self-collision keeps the cloth's sheets a 'thickness' apart: it must be above 0");
     }
-    attach(world, entity, std::move(net));
+    // masses closer than the thickness along the sheet would collide with their own neighbours' triangles
+    // (left to the springs), and every vertex would face a crowd of triangles each step
+    const double spacing = std::min(def.size[0] / (cols - 1), def.size[1] / (rows - 1));
+    if (selfCollision && net.thickness > spacing) {
+        r.fail("thickness", "self-collision needs a 'thickness' (" + std::to_string(net.thickness) +
+                                " m) no larger than the cloth's grid spacing (" + std::to_string(spacing) +
+                                " m): make it thinner, or the cloth coarser");
+    }
+    attach(r, world, entity, std::move(net));
 }
 
 /// [entity.softbody] (CONTRACT.md; shear and bend are extensions).
@@ -258,7 +275,7 @@ void loadSoftBody(TableReader& r, World& world, Entity entity, const SceneDef&) 
         "'none'");
     SpringNetwork net = buildSoftBody(def);
     readCommon(r, net, "implicit_euler");
-    attach(world, entity, std::move(net));
+    attach(r, world, entity, std::move(net));
 }
 
 constexpr std::string_view kShapeNames[] = {"springs", "rope", "cloth", "softbody"};

@@ -62,6 +62,8 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
         r.fail("cells", "the scene's water surfaces have more than " + std::to_string(kMaxNodesInAScene) +
                             " nodes in all");
     }
+    // heights, velocities, occupancy and the step's scratch (measured 37 bytes a node), and the drawn mesh
+    r.charge("cells", std::uint64_t(n) * 96u, r.where() + " (" + std::to_string(n) + " nodes)");
     w.h.assign(n, 0.0);
     w.v.assign(n, 0.0);
     w.occupied.assign(n, 0.0);
