@@ -2,7 +2,8 @@
 # One entry point for a fresh Debian 12 machine (run as root, or with sudo available):
 #   scripts/bootstrap.sh demo   install what is missing, build Release, run the default demo headlessly
 #   scripts/bootstrap.sh test   install what is missing, build Release, run the whole suite through ctest
-#   scripts/bootstrap.sh asan   the same suite in the AddressSanitizer + UBSan build (build-asan/)
+#   scripts/bootstrap.sh asan   the same suite in the AddressSanitizer + UBSan build (build-asan/), then each
+#                               fuzz target for $TUMBLE_FUZZ_SECONDS (default 60) in the clang build (build-fuzz/)
 # It is safe to run again: packages already there are not reinstalled, builds are incremental.
 set -euo pipefail
 
@@ -16,6 +17,7 @@ packages=(
     libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev libbullet-dev libbox2d-dev
     libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
     libegl-dev libgles-dev libegl-mesa0 ffmpeg
+    clang libclang-rt-14-dev
 )
 
 install_missing() {
@@ -68,10 +70,14 @@ asan)
     # check off, AddressSanitizer and UndefinedBehaviorSanitizer still on; every other test checks leaks.
     sanitizer_env=(LP_NUM_THREADS=0 MESA_SHADER_CACHE_DISABLE=true UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1)
     drawing='RenderSystem|Renders'
-    env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+    # the sweep's scenarios run through the sanitized program too, fewer of them (each is slower)
+    env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 TUMBLE_SWEEP_COUNT=200 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs" --label-exclude budget -E "$drawing"
     env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs" --label-exclude budget -R "$drawing"
+    # libFuzzer: every object instrumented by clang, ASan and UBSan on; any finding fails
+    CXX=clang++ build build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTUMBLE_FUZZ=ON -DTUMBLE_TESTS=OFF -DTUMBLE_BENCH=OFF
+    TUMBLE_FUZZ_SECONDS="${TUMBLE_FUZZ_SECONDS:-60}" ctest --test-dir "$root/build-fuzz" --output-on-failure -j "$jobs" -L fuzz
     ;;
 *)
     echo "usage: scripts/bootstrap.sh demo|test|asan" >&2
