@@ -32,13 +32,12 @@ std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std:
     if (!in) {
         throw std::runtime_error(displayName + ": cannot be read");
     }
-    // at most one byte past the limit: the file may have grown since it was measured
-    std::string text(static_cast<std::size_t>(kMaxObjBytes) + 1, '\0');
+    // one byte past its size, to see a file that changed since it was measured
+    std::string text(static_cast<std::size_t>(size) + 1, '\0');
     in.read(text.data(), static_cast<std::streamsize>(text.size()));
     text.resize(static_cast<std::size_t>(in.gcount()));
-    if (text.size() > kMaxObjBytes) {
-        throw std::runtime_error(displayName + ": larger than a mesh may be (" + std::to_string(kMaxObjBytes >> 20) +
-                                 " MiB)");
+    if (text.size() != size) {
+        throw std::runtime_error(displayName + ": changed while it was read");
     }
     return parseObjMesh(text, displayName);
 }
