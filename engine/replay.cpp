@@ -274,6 +274,9 @@ ReplayFile readReplay(const std::string& path) {
     if (ec || size > kMaxReplayBytes) {
         throw ReplayError(path, 0, "is larger than a replay may be (1 GiB)");
     }
+    if (size == 0) { // nothing to read (and /proc's files, which say 0, may block a read forever)
+        return parseReplay(path, "");
+    }
     std::ifstream in(path, std::ios::binary);
     if (!in) {
         throw ReplayError(path, 0, "cannot be read");

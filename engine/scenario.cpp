@@ -198,12 +198,12 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
         scene.renderWidth = static_cast<int>(r.integer("width", scene.renderWidth, 16, 8192));
         scene.renderHeight = static_cast<int>(r.integer("height", scene.renderHeight, 16, 8192));
         scene.background = r.vector<3>("background", scene.background, 0.0, 1.0);
-        // the frame buffers (colour and depth), the read-back frame and the PNG's rows
-        r.charge("width", std::uint64_t(scene.renderWidth) * std::uint64_t(scene.renderHeight) * 24u,
-                 "[render] (" + std::to_string(scene.renderWidth) + " x " + std::to_string(scene.renderHeight) +
-                     " frames)");
         r.finish();
     }
+    // the frame buffers (colour and depth), the read-back frame and the PNG's rows
+    ctx.charge(section("render"), std::uint64_t(scene.renderWidth) * std::uint64_t(scene.renderHeight) * 24u,
+               "[render] (" + std::to_string(scene.renderWidth) + " x " + std::to_string(scene.renderHeight) +
+                   " frames)");
 }
 
 // ---- entities
@@ -586,6 +586,9 @@ std::string readScenarioFile(const std::string& path) {
         throw ScenarioError(path, 0, 0,
                             "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
                                 " MiB");
+    }
+    if (st.st_size == 0) {
+        return ""; // nothing to read (and /proc's files, which say 0, may block a read forever)
     }
     std::ifstream in(path, std::ios::binary);
     if (!in) {

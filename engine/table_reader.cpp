@@ -54,8 +54,10 @@ std::string formatBytes(std::uint64_t bytes) {
     char text[32];
     if (bytes >= (1ull << 30)) {
         std::snprintf(text, sizeof text, "%.1f GiB", double(bytes) / double(1ull << 30));
-    } else {
+    } else if (bytes >= (1ull << 20)) {
         std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / double(1ull << 20));
+    } else {
+        std::snprintf(text, sizeof text, "%.1f KiB", double(bytes) / double(1ull << 10));
     }
     return text;
 }

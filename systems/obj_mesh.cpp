@@ -2,6 +2,7 @@
 
 #include "engine/gl_context.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -15,7 +16,9 @@ namespace fs = std::filesystem;
 namespace {
 constexpr std::size_t kMaxVertices = 1u << 20;
 constexpr std::uint64_t kMaxObjBytes = 256ull << 20;
+constexpr std::size_t kMaxTriangles = 2u << 20;
 constexpr std::size_t kMaxHullVertices = 4096;
+constexpr double kMaxCoordinate = 1e9; ///< m: beyond it products of coordinates overflow the checks below
 } // namespace
 
 std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std::string& displayName) {
@@ -27,6 +30,9 @@ std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std:
     if (ec || size > kMaxObjBytes) {
         throw std::runtime_error(displayName + ": larger than a mesh may be (" + std::to_string(kMaxObjBytes >> 20) +
                                  " MiB)");
+    }
+    if (size == 0) { // nothing to read (and /proc's files, which say 0, may block a read forever)
+        throw std::runtime_error(displayName + ": empty");
     }
     std::ifstream in(file, std::ios::binary);
     if (!in) {
@@ -61,6 +67,9 @@ std::shared_ptr<const ShapeMesh> parseObjMesh(const std::string& text, const std
             if (!(ss >> p.x >> p.y >> p.z) || !isFinite(p)) {
                 fail("a vertex needs three finite numbers: 'v x y z'");
             }
+            if (std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) > kMaxCoordinate) {
+                fail("a vertex coordinate is beyond 1e9 m");
+            }
             if (mesh->vertices.size() >= kMaxVertices) {
                 fail("too many vertices (at most " + std::to_string(kMaxVertices) + ")");
             }
@@ -81,6 +90,9 @@ std::shared_ptr<const ShapeMesh> parseObjMesh(const std::string& text, const std
                 if (index == 0 || resolved < 0 || resolved >= n) {
                     fail("vertex " + std::to_string(index) + " does not exist (" + std::to_string(n) +
                          " read so far)");
+                }
+                if (corners.size() + mesh->triangles.size() >= kMaxTriangles + 2) {
+                    fail("too many triangles (at most " + std::to_string(kMaxTriangles) + ")");
                 }
                 corners.push_back(static_cast<std::uint32_t>(resolved));
             }
@@ -123,6 +135,12 @@ std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
         fail(0, "a convex shape has at most " + std::to_string(kMaxHullVertices) + " vertices (this one has " +
                     std::to_string(file.vertices.size()) + "); use shape = \"mesh\" for a static one");
     }
+    // a closed convex polyhedron of V vertices has at most 2V - 4 triangles; more means repeated faces
+    if (file.triangles.size() + 4 > 2 * file.vertices.size()) {
+        fail(0, "a convex shape of " + std::to_string(file.vertices.size()) + " vertices has at most " +
+                    std::to_string(2 * file.vertices.size() - 4) + " triangles; this one has " +
+                    std::to_string(file.triangles.size()));
+    }
     // closed and wound outward: the signed volume of the tetrahedra from the origin is positive; its
     // centroid is the body's centre of mass
     double volume = 0.0;
@@ -133,7 +151,7 @@ std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
         volume += v;
         moment += (a + b + c) * (v / 4.0);
     }
-    if (volume <= 0.0) {
+    if (!(volume > 0.0)) {
         fail(0, "a convex shape must be a closed hull with its faces counter-clockwise seen from outside "
                 "(its volume comes out " + std::to_string(volume) + " m^3)");
     }

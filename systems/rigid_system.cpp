@@ -41,15 +41,17 @@ std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world, bool con
     if (found != cache->byFile.end()) {
         return found->second;
     }
+    std::shared_ptr<const ShapeMesh> mesh;
     try {
-        auto mesh = readObjMesh(file, name);
-        // Bullet's copy of the triangles and its bounding-volume tree over them, beside ours
-        r.charge("mesh", mesh->triangles.size() * 200u + mesh->vertices.size() * 48u,
-                 "mesh '" + name + "' (" + std::to_string(mesh->triangles.size()) + " triangles)");
-        return cache->byFile[key] = convex ? convexHullMesh(*mesh) : mesh;
-    } catch (const std::exception& e) {
+        mesh = readObjMesh(file, name);
+        mesh = convex ? convexHullMesh(*mesh) : mesh;
+    } catch (const std::runtime_error& e) {
         r.fail("mesh", e.what());
     }
+    // Bullet's copy of the triangles and its bounding-volume tree over them, beside ours
+    r.charge("mesh", mesh->triangles.size() * 200u + mesh->vertices.size() * 48u,
+             "mesh '" + name + "' (" + std::to_string(mesh->triangles.size()) + " triangles)");
+    return cache->byFile[key] = mesh;
 }
 
 Vec3 vec(const std::array<double, 3>& a) {
