@@ -1,10 +1,11 @@
-// The `tumble` program: the engine's command line with the built-in systems registered.
+// The `tumble` program: the engine's command line with the built-in systems registered and the viewer.
 
+#include "app/viewer.h"
 #include "engine/cli.h"
 #include "systems/builtin.h"
 
 int main(int argc, char** argv) {
     tumble::Catalog catalog;
     tumble::registerBuiltinSystems(catalog);
-    return tumble::runCli(argc, argv, catalog);
+    return tumble::runCli(argc, argv, catalog, tumble::runViewer);
 }

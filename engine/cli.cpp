@@ -103,6 +103,7 @@ struct RunOptions {
     std::string from;                      ///< --from SNAPSHOT
     bool verify = false;                   ///< replay --verify
     bool realtime = false;                 ///< run --realtime
+    bool paused = false;                   ///< view --paused
     std::optional<double> physicsMs;       ///< budget --physics-ms
     std::optional<double> scale;           ///< budget --scale
     std::string chart;                     ///< budget --chart FILE (SVG)
@@ -817,7 +818,7 @@ std::string resolveScenario(const std::string& nameOrPath) {
     throw ScenarioError(nameOrPath, 0, 0, "cannot open the scenario: no such file");
 }
 
-int runCli(int argc, char** argv, const Catalog& catalog) {
+int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer) {
     CLI::App app{"Tumble: a real-time physics sandbox that runs headlessly.\n"
                  "Scenarios are TOML files (see the README); demos are run by name.",
                  "tumble"};
@@ -910,12 +911,26 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
     budgetCmd->add_flag("--quiet", o.quiet, "No progress bar");
     budgetCmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
 
+    CLI::App* viewCmd = app.add_subcommand(
+        "view", "Open a window on a scenario, live: drag things with the mouse, watch the budget (needs a display)");
+    addScenarioOptions(viewCmd, o);
+    viewCmd->add_option("--record", o.record,
+                        "Write a replay of the session to FILE (after R, the next one to FILE-2, ...); "
+                        "`tumble replay FILE --verify` plays it back headlessly")
+        ->type_name("FILE");
+    viewCmd->add_option("--profile", o.profile, "Write the budget summary as JSON to FILE when the window closes")
+        ->type_name("FILE");
+    viewCmd->add_flag("--paused", o.paused, "Start paused (Space runs, N steps once)");
+    viewCmd->footer("Mouse: left-drag a thing to pull it on a spring, left-drag empty space to orbit, right- or "
+                    "middle-drag to pan, wheel to zoom.\nKeys: Space pause, N one step, R reset, S slow motion "
+                    "(x1/4), W wireframe, I next integrator of the held (or first) spring network, Q or Esc quit.");
+
     // an unknown verb is named, rather than CLI11's "a subcommand is required"
     if (argc >= 2 && argv[1][0] != '-') {
         const std::string verb = argv[1];
         const auto verbs = app.get_subcommands([](CLI::App*) { return true; });
         if (std::none_of(verbs.begin(), verbs.end(), [&](CLI::App* v) { return v->get_name() == verb; })) {
-            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check, run, replay and budget\n"
+            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check, run, replay, budget and view\n"
                       << "Run `tumble --help` for usage.\n";
             return kExitBadInput;
         }
@@ -944,6 +959,21 @@ int runCli(int argc, char** argv, const Catalog& catalog) {
         }
         if (budgetCmd->parsed()) {
             return commandBudget(catalog, o);
+        }
+        if (viewCmd->parsed()) {
+            if (!viewer) {
+                std::cerr << "tumble: this build has no viewer; `tumble run` simulates and writes frames headlessly\n";
+                return kExitFailure;
+            }
+            ViewRequest request;
+            request.scenarioPath = resolveScenario(o.scenario);
+            request.scenarioText = readScenarioFile(request.scenarioPath);
+            request.sets = o.sets;
+            request.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
+            request.record = o.record;
+            request.profile = o.profile;
+            request.paused = o.paused;
+            return viewer(catalog, request);
         }
         return commandRun(catalog, o);
     } catch (const ScenarioError& e) {

@@ -4,7 +4,10 @@
 
 #include "engine/catalog.h"
 
+#include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 namespace tumble {
 
@@ -18,8 +21,22 @@ enum ExitCode : int {
     kExitInterrupted = 130 ///< Ctrl-C: outputs so far were written
 };
 
-/// Runs the command line; returns the process exit code.
-int runCli(int argc, char** argv, const Catalog& catalog);
+/// What `tumble view` is asked for (the scenario already read); see app/viewer.h.
+struct ViewRequest {
+    std::string scenarioPath;
+    std::string scenarioText;
+    std::vector<std::string> sets; ///< --set overrides
+    std::uint64_t memoryCap = 0;   ///< bytes
+    std::string record;            ///< --record FILE: a replay of what happens in the window
+    std::string profile;           ///< --profile FILE: the budget summary, written when the window closes
+    bool paused = false;           ///< --paused: start with the simulation stopped
+};
+
+/// The viewer of a program that has one (the engine's CLI itself opens no window).
+using ViewerFn = std::function<int(const Catalog&, const ViewRequest&)>;
+
+/// Runs the command line; returns the process exit code. `view` runs `viewer` (without one, it says so).
+int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer = {});
 
 /// The folder that holds the demos: $TUMBLE_DEMOS, else demos/ beside or above the executable, else the
 /// source tree's demos/.

@@ -42,6 +42,7 @@ public:
     Framebuffer& operator=(const Framebuffer&) = delete;
 
     void bind() const;
+    unsigned id() const { return m_fbo; }
     int width() const { return m_width; }
     int height() const { return m_height; }
     /// The pixels, RGBA, top row first.

@@ -59,6 +59,34 @@ void Profiler::endFrame() {
     keepTraceEvent({-1, m_frame, m_frameStartNs, end - m_frameStartNs});
 }
 
+std::vector<float> Profiler::Ring::last(std::size_t n) const {
+    n = std::min(n, samples.size());
+    std::vector<float> out(n);
+    // the newest sample sits just before `next` (at the end while the ring fills, when next is 0)
+    const std::size_t end = next == 0 ? samples.size() : next;
+    for (std::size_t k = 0; k < n; ++k) {
+        out[n - 1 - k] = samples[(end + samples.size() - 1 - k) % samples.size()];
+    }
+    return out;
+}
+
+std::vector<RecentSlot> Profiler::recentStats(std::size_t n) const {
+    std::vector<RecentSlot> out;
+    for (const Slot& s : m_slots) {
+        const std::vector<float> last = s.recent.last(n);
+        double sum = 0.0;
+        for (float ms : last) {
+            sum += ms;
+        }
+        out.push_back({s.name, s.phase, s.isPhase, last.empty() ? 0.0 : sum / double(last.size())});
+    }
+    return out;
+}
+
+std::vector<float> Profiler::recentPhysics(std::size_t n) const {
+    return m_physics.last(n);
+}
+
 std::vector<float> Profiler::physicsHistory() const {
     const auto& r = m_physics;
     if (r.samples.size() < m_capacity) {

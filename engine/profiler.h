@@ -31,6 +31,14 @@ struct SlotStats {
     double maxMs = 0.0; ///< over every call of the run
 };
 
+/// A slot's recent time, for a live display (tumble view's overlay).
+struct RecentSlot {
+    std::string name;
+    Phase phase = Phase::Fixed;
+    bool isPhase = false;
+    double meanMs = 0.0; ///< over its last calls
+};
+
 /// Per-frame statistics, in milliseconds.
 struct FrameStats {
     std::uint64_t frames = 0;
@@ -74,6 +82,10 @@ public:
     FrameStats frameStats() const;
     /// Physics ms of each frame still in the ring, oldest first.
     std::vector<float> physicsHistory() const;
+    /// Each slot's mean over its last n calls, and the physics ms of the last n frames (oldest first):
+    /// cheap enough to ask every frame (no sorting).
+    std::vector<RecentSlot> recentStats(std::size_t n) const;
+    std::vector<float> recentPhysics(std::size_t n) const;
     double budgetMs() const { return static_cast<double>(m_budgetNs) * 1e-6; }
 
     /// Writes Chrome trace-event JSON (the "traceEvents" object form): one complete event per timed scope,
@@ -91,6 +103,8 @@ private:
         std::size_t next = 0;
         void push(float ms, std::size_t capacity);
         double percentile(double p) const;
+        /// The last n samples, oldest first.
+        std::vector<float> last(std::size_t n) const;
     };
     struct Slot {
         std::string name;

@@ -2,6 +2,7 @@
 // What a run asks of the renderer, as a world resource the command line fills: whether to draw at all,
 // where PNG frames go and which frames to keep. The renderer (a system) reads it and lists what it wrote.
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -17,6 +18,13 @@ struct RenderOutput {
     std::uint64_t lastFrame = 0;      ///< the run's final frame number (always written)
     std::vector<std::string> written; ///< PNG files written so far
     std::string device;               ///< the GL version, renderer and EGL platform used
+    // a live window (tumble view) asks for more: its own GL context, its size and camera, and wireframe
+    bool externalContext = false;     ///< a GL ES 3 context is already current: draw with it, make none
+    int width = 0, height = 0;        ///< the image size; 0: the scene's [render] size
+    bool cameraSet = false;           ///< eye and target below replace the scene's camera
+    std::array<double, 3> eye{}, target{};
+    bool wireframe = false;           ///< spring networks as springs and masses, cloth included
+    bool keepFrames = true;           ///< false: never write PNG frames (the window shows them)
     /// When set, every rendered frame's pixels (RGBA, top row first) go here (the video encoder).
     std::function<void(const std::vector<std::uint8_t>& rgba)> video;
 };

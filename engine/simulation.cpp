@@ -57,23 +57,35 @@ void Simulation::runFrameAt(const Clock& clock) {
 }
 
 void Simulation::runSteps(int steps, double alpha) {
-    const SceneDef& scene = m_scenario.scene;
-    m_profiler.beginFrame(m_frame);
-    StepContext ctx;
-    ctx.dt = scene.dt;
-    ctx.seed = scene.seed;
-    ctx.frame = m_frame;
+    beginFrame();
     for (int i = 0; i < steps; ++i) {
-        ctx.step = m_step;
-        ctx.time = static_cast<double>(m_step) * scene.dt;
-        m_schedule.run(Phase::Input, m_world, ctx);
-        m_schedule.run(Phase::Fixed, m_world, ctx);
-        ++m_step;
+        runStep();
     }
     m_mostSteps = std::max(m_mostSteps, steps);
-    ctx.time = time();
-    ctx.alpha = alpha;
-    m_schedule.run(Phase::Frame, m_world, ctx);
+    endFrame(alpha);
+}
+
+void Simulation::beginFrame() {
+    const SceneDef& scene = m_scenario.scene;
+    m_profiler.beginFrame(m_frame);
+    m_ctx = StepContext{};
+    m_ctx.dt = scene.dt;
+    m_ctx.seed = scene.seed;
+    m_ctx.frame = m_frame;
+}
+
+void Simulation::runStep() {
+    m_ctx.step = m_step;
+    m_ctx.time = static_cast<double>(m_step) * m_scenario.scene.dt;
+    m_schedule.run(Phase::Input, m_world, m_ctx);
+    m_schedule.run(Phase::Fixed, m_world, m_ctx);
+    ++m_step;
+}
+
+void Simulation::endFrame(double alpha) {
+    m_ctx.time = time();
+    m_ctx.alpha = alpha;
+    m_schedule.run(Phase::Frame, m_world, m_ctx);
     m_profiler.endFrame();
     ++m_frame;
 }

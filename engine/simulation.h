@@ -38,6 +38,11 @@ public:
     /// Advance one frame paced by a clock: the steps the time since the last call completes, at most
     /// `substeps` (time beyond that is dropped and counted); the frame is drawn between the last two steps.
     void runFrameAt(const Clock& clock);
+    /// A frame taken apart, for a caller that paces steps itself (the viewer): begin it, run any number
+    /// of fixed steps, then end it, which runs the frame phase at `alpha` between the last two steps.
+    void beginFrame();
+    void runStep();
+    void endFrame(double alpha);
     /// Real time dropped so far by runFrameAt, s, and the most steps any one frame took.
     double droppedSeconds() const { return static_cast<double>(m_droppedNs) * 1e-9; }
     int mostStepsInAFrame() const { return m_mostSteps; }
@@ -76,6 +81,7 @@ private:
     int m_mostSteps = 0;
     void runSteps(int steps, double alpha);
     std::uint64_t m_step = 0;
+    StepContext m_ctx; ///< the frame being run
 };
 
 /// The budget summary of CONTRACT.md, as JSON.

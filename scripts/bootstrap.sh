@@ -18,6 +18,7 @@ packages=(
     libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
     libegl-dev libgles-dev libegl-mesa0 ffmpeg
     clang libclang-rt-14-dev
+    libglfw3-dev libimgui-dev xvfb xdotool imagemagick
 )
 
 install_missing() {

@@ -229,9 +229,15 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
         return *r;
     }
     Renderer& r = world.setResource<Renderer>();
-    r.context = std::make_unique<GlContext>();
-    output.device = r.context->description();
-    r.target = std::make_unique<Framebuffer>(scene.renderWidth, scene.renderHeight);
+    if (output.externalContext) {
+        output.device = std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))) + " | " +
+                        reinterpret_cast<const char*>(glGetString(GL_RENDERER)) + " | a window's context";
+    } else {
+        r.context = std::make_unique<GlContext>();
+        output.device = r.context->description();
+    }
+    r.target = std::make_unique<Framebuffer>(output.width > 0 ? output.width : scene.renderWidth,
+                                             output.height > 0 ? output.height : scene.renderHeight);
     const std::string shaders = assetDirectory() + "/shaders/";
     r.meshProgram = compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "mesh.frag"), "mesh");
     r.flatProgram = compileProgram(readText(shaders + "flat.vert"), readText(shaders + "flat.frag"), "flat");
@@ -527,15 +533,22 @@ void renderWorld(World& world, const StepContext& ctx) {
     }
     const SceneDef& scene = world.resource<SceneDef>();
     Renderer& r = renderer(world, scene, *output);
+    if (output->width > 0 && output->height > 0 &&
+        (output->width != r.target->width() || output->height != r.target->height())) {
+        r.target.reset(); // a window resized: a new target of its size
+        r.target = std::make_unique<Framebuffer>(output->width, output->height);
+    }
     r.target->bind();
     glClearColor(float(scene.background[0]), float(scene.background[1]), float(scene.background[2]), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
 
-    const Vec3 eye{scene.cameraEye[0], scene.cameraEye[1], scene.cameraEye[2]};
-    const Vec3 target{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
-    const Mat4 viewProjection = tumble::viewProjection(scene);
+    const auto& eyeAt = output->cameraSet ? output->eye : scene.cameraEye;
+    const auto& targetAt = output->cameraSet ? output->target : scene.cameraTarget;
+    const Vec3 eye{eyeAt[0], eyeAt[1], eyeAt[2]};
+    const Vec3 target{targetAt[0], targetAt[1], targetAt[2]};
+    const Mat4 viewProjection = tumble::viewProjection(scene, output);
     Vec3 light = (target - eye) * 0.5 + Vec3{0.0, -1.0, 0.0} * length(target - eye);
     light = light * (1.0 / length(light));
 
@@ -552,7 +565,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r); });
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
-        if (!net.triangles.empty()) {
+        if (!net.triangles.empty() && !output->wireframe) {
             drawSurface(net, drawnPositions(world, e, net, ctx.alpha, r.positions), r, palette(drawn));
         }
         ++drawn;
@@ -564,7 +577,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     glUniformMatrix4fv(glGetUniformLocation(r.flatProgram, "uViewProjection"), 1, GL_FALSE,
                        viewProjection.data());
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
-        if (!net.triangles.empty()) {
+        if (!net.triangles.empty() && !output->wireframe) {
             return; // drawn as a surface
         }
         const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions);
@@ -582,7 +595,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         const auto c = palette(drawn++);
-        if (!net.triangles.empty()) {
+        if (!net.triangles.empty() && !output->wireframe) {
             return;
         }
         const float radius = float(std::max(0.04, net.thickness));
@@ -635,7 +648,8 @@ void renderWorld(World& world, const StepContext& ctx) {
 
     // keep this frame? every pngEvery frames, and the last frame always; every frame for a video
     const std::uint64_t frame = ctx.frame + 1;
-    const bool png = (output->pngEvery > 0 && frame % output->pngEvery == 0) || frame == output->lastFrame;
+    const bool png = output->keepFrames &&
+                     ((output->pngEvery > 0 && frame % output->pngEvery == 0) || frame == output->lastFrame);
     if (png || output->video) {
         r.target->read(r.pixels);
     } else {
@@ -658,10 +672,14 @@ void renderWorld(World& world, const StepContext& ctx) {
     }
 }
 
-std::array<float, 16> viewProjection(const SceneDef& scene) {
-    const Vec3 eye{scene.cameraEye[0], scene.cameraEye[1], scene.cameraEye[2]};
-    const Vec3 target{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
-    const double aspect = double(scene.renderWidth) / scene.renderHeight;
+std::array<float, 16> viewProjection(const SceneDef& scene, const RenderOutput* output) {
+    const bool own = output && output->cameraSet;
+    const Vec3 eye = own ? Vec3{output->eye[0], output->eye[1], output->eye[2]}
+                         : Vec3{scene.cameraEye[0], scene.cameraEye[1], scene.cameraEye[2]};
+    const Vec3 target = own ? Vec3{output->target[0], output->target[1], output->target[2]}
+                            : Vec3{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
+    const bool sized = output && output->width > 0 && output->height > 0;
+    const double aspect = sized ? double(output->width) / output->height : double(scene.renderWidth) / scene.renderHeight;
     return multiply(perspective(scene.cameraFovDeg, aspect, 0.05, 500.0), lookAt(eye, target));
 }
 
@@ -673,6 +691,20 @@ bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>&
     r->target->read(rgba);
     width = r->target->width();
     height = r->target->height();
+    return true;
+}
+
+bool presentImage(World& world, int width, int height) {
+    Renderer* r = world.tryResource<Renderer>();
+    if (!r || !r->drawn) {
+        return false;
+    }
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->target->id());
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+    const bool same = width == r->target->width() && height == r->target->height();
+    glBlitFramebuffer(0, 0, r->target->width(), r->target->height(), 0, 0, width, height, GL_COLOR_BUFFER_BIT,
+                      same ? GL_NEAREST : GL_LINEAR);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
     return true;
 }
 

@@ -15,6 +15,7 @@
 // camera; a soft sky light and a darkening near the ground stand in for shadows.
 
 #include "engine/catalog.h"
+#include "engine/render_output.h"
 #include "engine/scene.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
@@ -32,8 +33,13 @@ void renderWorld(World& world, const StepContext& ctx);
 /// Reads back the last drawn image (RGBA, top row first); false if nothing was drawn yet.
 bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>& rgba);
 
-/// The camera's view-projection matrix (column-major), as the renderer uses it.
-std::array<float, 16> viewProjection(const SceneDef& scene);
+/// Copies the last drawn image into the current context's window (framebuffer 0) of width x height pixels;
+/// false if nothing was drawn yet.
+bool presentImage(World& world, int width, int height);
+
+/// The camera's view-projection matrix (column-major), as the renderer uses it: the scene's camera and image
+/// size, or the output's when it sets them.
+std::array<float, 16> viewProjection(const SceneDef& scene, const RenderOutput* output = nullptr);
 
 /// Registers the renderer as the frame phase's system.
 void registerRenderSystem(Catalog& catalog);

@@ -33,14 +33,14 @@ std::vector<json> jsonLines(const std::string& text) {
 }
 
 TEST(Cli, HelpForEveryVerb) {
-    for (const char* verb : {"list", "check", "run", "replay", "budget"}) {
+    for (const char* verb : {"list", "check", "run", "replay", "budget", "view"}) {
         const auto r = runTumble({verb, "--help"});
         EXPECT_EQ(r.exitCode, 0) << verb << ": " << r.err;
         EXPECT_NE(r.out.find("Usage"), std::string::npos) << verb;
     }
     const auto top = runTumble({"--help"});
     EXPECT_EQ(top.exitCode, 0);
-    for (const char* verb : {"list", "check", "run", "replay", "budget"}) {
+    for (const char* verb : {"list", "check", "run", "replay", "budget", "view"}) {
         EXPECT_NE(top.out.find(verb), std::string::npos) << verb;
     }
     const auto run = runTumble({"run", "--help"});

@@ -41,6 +41,28 @@ TEST(Profiler, RingBufferKeepsTheMostRecentSamples) {
     EXPECT_EQ(st.calls, 20u);
 }
 
+TEST(Profiler, RecentStatisticsAreTheLastCallsOldestFirst) {
+    Profiler p(8);
+    const int s = p.addSlot("x", Phase::Fixed, false);
+    for (int i = 1; i <= 3; ++i) {
+        p.record(s, 0, i * kMs); // the ring still filling
+    }
+    EXPECT_NEAR(p.recentStats(2).at(0).meanMs, 2.5, 1e-9);
+    for (int i = 4; i <= 13; ++i) {
+        p.record(s, 0, i * kMs); // wrapped: the ring holds 6..13
+    }
+    EXPECT_NEAR(p.recentStats(3).at(0).meanMs, 12.0, 1e-9);
+    EXPECT_NEAR(p.recentStats(100).at(0).meanMs, 9.5, 1e-9) << "no more than the ring holds";
+    EXPECT_EQ(p.recentStats(3).at(0).name, "x");
+    const int fixed = p.addSlot("phase:fixed", Phase::Fixed, true);
+    for (int f = 1; f <= 10; ++f) {
+        p.beginFrame(std::uint64_t(f));
+        p.record(fixed, 0, f * kMs);
+        p.endFrame();
+    }
+    EXPECT_EQ(p.recentPhysics(3), (std::vector<float>{8.0f, 9.0f, 10.0f}));
+}
+
 TEST(Profiler, FramePhysicsSumsFixedPhaseAndCountsOverBudget) {
     Profiler p;
     p.setPhysicsBudgetMs(5.0);

@@ -1,0 +1,188 @@
+// The mouse spring against physics: backward Euler of a critically damped spring on a free mass, converging
+// at first order; a rigid body pulled to the target; release, set_integrator, and the events' errors.
+
+#include "components/particles.h"
+#include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
+#include "components/spring_network.h"
+#include "engine/scenario.h"
+#include "systems/grab_system.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace tumble {
+namespace {
+
+using test::simulate;
+
+void runFor(Simulation& sim, double seconds) {
+    const auto frames = static_cast<int>(std::lround(seconds / sim.scene().frameSeconds()));
+    for (int i = 0; i < frames; ++i) {
+        sim.runFrame();
+    }
+}
+
+/// One free mass of `mass` kg at the origin, no gravity, held from the first step with the target 1 m along
+/// x.
+std::string heldMass(double dt, double mass) {
+    return "[scene]\nname = \"held\"\ngravity = [0, 0, 0]\ndt = " + std::to_string(dt) +
+           "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nmasses = [ { x = [0, 0, 0], m = " +
+           std::to_string(mass) +
+           " } ]\n[[event]]\nframe = 0\nentity = \"bob\"\naction = \"grab\"\nvalue = 0\nposition = [1, 0, "
+           "0]\n";
+}
+
+TEST(GrabSystem, HeldMassFollowsTheCriticallyDampedSpringAndConvergesAtFirstOrder) {
+    // k = m w^2, c = 2 m w: x(t) = 1 - (1 + w t) e^(-w t), whatever the mass
+    const double w = kGrabOmega, t = 0.5; // a whole number of steps of each dt
+    const double exact = 1.0 - (1.0 + w * t) * std::exp(-w * t);
+    double previous = 0.0;
+    for (double dt : {0.004, 0.002, 0.001}) {
+        auto sim = simulate(heldMass(dt, 3.0));
+        runFor(*sim, t);
+        const double error = std::abs(test::component<SpringNetwork>(*sim, "bob").x[0].x - exact);
+        EXPECT_LT(error, 0.05) << "dt " << dt;
+        if (previous > 0.0) {
+            EXPECT_NEAR(previous / error, 2.0, 0.3) << "backward Euler is first order; dt " << dt;
+        }
+        previous = error;
+    }
+    // critically damped: it never passes the target
+    auto sim = simulate(heldMass(1.0 / 60.0, 1e-3));
+    for (int i = 0; i < 240; ++i) {
+        sim->runFrame();
+        ASSERT_LE(test::component<SpringNetwork>(*sim, "bob").x[0].x, 1.0 + 1e-9) << "frame " << i;
+    }
+    EXPECT_NEAR(test::component<SpringNetwork>(*sim, "bob").x[0].x, 1.0, 1e-3);
+}
+
+TEST(GrabSystem, RigidBodiesArePulledToTheTargetAndLetGo) {
+    auto sim = simulate(R"([scene]
+name = "held"
+gravity = [0, 0, 0]
+[[entity]]
+name = "crate"
+[entity.rigid_body]
+shape = "box"
+half_extents = [0.2, 0.2, 0.2]
+mass = 4.0
+[[entity]]
+name = "disc"
+[entity.transform]
+position = [5, 0, 0]
+[entity.rigid_body_2d]
+shape = "circle"
+radius = 0.2
+mass = 2.0
+[[event]]
+frame = 0
+entity = "crate"
+action = "grab"
+value = [0.0, 0.0, 0.0]
+position = [1.0, 1.0, 0.0]
+[[event]]
+frame = 0
+entity = "disc"
+action = "grab"
+value = [0.0, 0.0]
+position = [5.0, 2.0, 0.0]
+[[event]]
+at = 3.0
+entity = "crate"
+action = "release"
+)");
+    runFor(*sim, 2.5);
+    const RigidBody& crate = test::component<RigidBody>(*sim, "crate");
+    // held by its centre, it sits at the target (a point off the centre would let it spin about the hold)
+    EXPECT_LT(length(crate.position - Vec3{1.0, 1.0, 0.0}), 0.01);
+    const RigidBody2D& disc = test::component<RigidBody2D>(*sim, "disc");
+    EXPECT_NEAR(disc.position[0], 5.0, 0.01);
+    EXPECT_NEAR(disc.position[1], 2.0, 0.01);
+    // let go, nothing pulls: it drifts at the speed it had
+    runFor(*sim, 0.6);
+    const Vec3 v = crate.linearVelocity;
+    runFor(*sim, 0.5);
+    EXPECT_LT(length(crate.linearVelocity - v), 1e-6);
+}
+
+TEST(GrabSystem, EmittersMoveWithTheDragAndIntegratorsChangeLive) {
+    auto sim = simulate(R"([scene]
+name = "moved"
+[[entity]]
+name = "spout"
+[entity.emitter]
+rate = 10.0
+[[entity]]
+name = "rope"
+[entity.transform]
+position = [0, 2, 0]
+[entity.rope]
+segments = 4
+length = 1.0
+[[event]]
+frame = 1
+entity = "spout"
+action = "grab"
+position = [0, 0, 0]
+[[event]]
+frame = 2
+entity = "spout"
+action = "drag"
+position = [1, 2, 3]
+[[event]]
+frame = 2
+entity = "rope"
+action = "set_integrator"
+value = 4
+[[event]]
+frame = 3
+entity = "rope"
+action = "drag"
+position = [9, 9, 9]
+)");
+    runFor(*sim, 5.0 / 60.0);
+    const ParticleEmitter& spout = test::component<ParticleEmitter>(*sim, "spout");
+    EXPECT_EQ(spout.origin, (Vec3{1.0, 2.0, 3.0}));
+    const SpringNetwork& rope = test::component<SpringNetwork>(*sim, "rope");
+    EXPECT_EQ(rope.integrator, Integrator::ImplicitEuler);
+    // a drag with nothing held moves nothing
+    EXPECT_LT(rope.x[2].y, 2.0 + 1e-9);
+}
+
+TEST(GrabSystem, EventsThatCannotHoldAreClearErrors) {
+    const std::string scene = R"([scene]
+name = "bad"
+[[entity]]
+name = "ground"
+[entity.rigid_body]
+shape = "plane"
+[[entity]]
+name = "rope"
+[entity.transform]
+position = [0, 2, 0]
+[entity.rope]
+segments = 4
+length = 1.0
+)";
+    auto expectError = [&](const std::string& event, const std::string& says) {
+        try {
+            simulate(scene + "[[event]]\nframe = 0\n" + event);
+            ADD_FAILURE() << "accepted: " << event;
+        } catch (const ScenarioError& e) {
+            EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+        }
+    };
+    expectError("entity = \"ground\"\naction = \"grab\"\nvalue = [0, 0, 0]\nposition = [0, 1, 0]\n",
+                "static");
+    expectError("entity = \"rope\"\naction = \"grab\"\nvalue = 99\nposition = [0, 1, 0]\n",
+                "mass index in [0, 4]");
+    expectError("entity = \"rope\"\naction = \"set_integrator\"\nvalue = 7\n", "4 implicit_euler");
+    expectError("entity = \"rope\"\naction = \"release\"\nvalue = 1\n", "value");
+}
+
+} // namespace
+} // namespace tumble
