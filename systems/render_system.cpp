@@ -595,8 +595,8 @@ void renderWorld(World& world, const StepContext& ctx) {
     drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         const auto c = palette(drawn++);
-        if (!net.triangles.empty() && !output->wireframe) {
-            return;
+        if (!net.triangles.empty()) {
+            return; // a surface, or in wireframe its springs alone (balls would hide them)
         }
         const float radius = float(std::max(0.04, net.thickness));
         r.instances.clear();
