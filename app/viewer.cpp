@@ -218,42 +218,90 @@ std::optional<std::array<double, 3>> project(const std::array<float, 16>& m, con
     return std::array<double, 3>{(cx / cw + 1.0) * 0.5 * width, (1.0 - cy / cw) * 0.5 * height, cw};
 }
 
-/// A radius that holds a rigid body's shape, m.
-double boundingRadius(const RigidBody& b) {
+/// A body's extent in its own frame: the box that holds its shape (exact for boxes), m.
+struct LocalBox {
+    Vec3 lo, hi;
+};
+
+LocalBox localBox(const RigidBody& b) {
     switch (b.shape) {
     case ShapeKind::Box:
-        return length(b.halfExtents);
+        return {-b.halfExtents, b.halfExtents};
     case ShapeKind::Sphere:
-        return b.radius;
+        return {Vec3{-1, -1, -1} * b.radius, Vec3{1, 1, 1} * b.radius};
     case ShapeKind::Capsule:
-    case ShapeKind::Cylinder:
-        return b.radius + 0.5 * b.height;
+    case ShapeKind::Cylinder: {
+        const double half = 0.5 * b.height + (b.shape == ShapeKind::Capsule ? b.radius : 0.0);
+        return {{-b.radius, -half, -b.radius}, {b.radius, half, b.radius}};
+    }
     case ShapeKind::Convex:
     case ShapeKind::Mesh:
-        return b.mesh ? std::max(length(b.mesh->lo), length(b.mesh->hi)) : 0.5;
+        if (b.mesh) {
+            return {b.mesh->lo, b.mesh->hi};
+        }
+        break;
     case ShapeKind::Plane:
         break;
     }
-    return 0.0;
+    return {};
 }
 
-double boundingRadius(const RigidBody2D& b) {
+/// A 2D body is drawn as a slab half a metre deep about its entity's z.
+LocalBox localBox(const RigidBody2D& b) {
+    constexpr double kHalfDepth = 0.25;
     switch (b.shape) {
     case Shape2DKind::Box:
-        return std::hypot(b.halfExtents[0], b.halfExtents[1]);
+        return {{-b.halfExtents[0], -b.halfExtents[1], -kHalfDepth},
+                {b.halfExtents[0], b.halfExtents[1], kHalfDepth}};
     case Shape2DKind::Circle:
-        return b.radius;
+        return {{-b.radius, -b.radius, -kHalfDepth}, {b.radius, b.radius, kHalfDepth}};
     case Shape2DKind::Polygon: {
-        double r = 0.0;
+        LocalBox box{{1e300, 1e300, -kHalfDepth}, {-1e300, -1e300, kHalfDepth}};
         for (const Vec2& v : b.vertices) {
-            r = std::max(r, std::hypot(v[0], v[1]));
+            box.lo = {std::min(box.lo.x, v[0]), std::min(box.lo.y, v[1]), -kHalfDepth};
+            box.hi = {std::max(box.hi.x, v[0]), std::max(box.hi.y, v[1]), kHalfDepth};
         }
-        return r;
+        return box;
     }
     case Shape2DKind::Edge:
         break;
     }
-    return 0.0;
+    return {};
+}
+
+/// Where a ray first meets a box given in a body's frame (slab test), as the distance along the ray and
+/// the point in the body's frame; nullopt if it misses or the eye is inside.
+std::optional<std::pair<double, Vec3>> hitBox(const Ray& ray, const Vec3& position, const Quat& orientation,
+                                              const LocalBox& box) {
+    const Quat inverse = conjugate(orientation);
+    const Vec3 o = rotate(inverse, ray.origin - position), d = rotate(inverse, ray.direction);
+    double near = 0.0, far = 1e300;
+    const double os[3] = {o.x, o.y, o.z}, ds[3] = {d.x, d.y, d.z}, lo[3] = {box.lo.x, box.lo.y, box.lo.z},
+                 hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+    for (int k = 0; k < 3; ++k) {
+        if (!(hi[k] > lo[k])) {
+            return std::nullopt; // no extent: nothing to hold
+        }
+        if (std::abs(ds[k]) < 1e-15) {
+            if (os[k] < lo[k] || os[k] > hi[k]) {
+                return std::nullopt;
+            }
+            continue;
+        }
+        double t0 = (lo[k] - os[k]) / ds[k], t1 = (hi[k] - os[k]) / ds[k];
+        if (t0 > t1) {
+            std::swap(t0, t1);
+        }
+        near = std::max(near, t0);
+        far = std::min(far, t1);
+        if (near > far) {
+            return std::nullopt;
+        }
+    }
+    if (near <= 0.0) {
+        return std::nullopt;
+    }
+    return std::pair{near, o + d * near};
 }
 
 /// The first hit of a ray on a sphere, or nullopt.
@@ -353,7 +401,7 @@ std::optional<Pick> pickAt(World& world, const SceneDef& scene, const RenderOutp
                 if (pixels < foundPixels) {
                     found = i;
                     foundPixels = pixels;
-                    foundDepth = (*p)[2];
+                    foundDepth = length(net.x[i] - eye); // distance along the ray, as the others
                 }
             }
         }
@@ -364,7 +412,7 @@ std::optional<Pick> pickAt(World& world, const SceneDef& scene, const RenderOutp
     world.view<const ParticleEmitter>().each([&](Entity e, const ParticleEmitter& emitter) {
         if (auto p = project(vp, emitter.origin, out.width, out.height)) {
             if (std::hypot((*p)[0] - x, (*p)[1] - y) < kPickPixels * 1.5) {
-                offer(e, {}, emitter.origin, (*p)[2]);
+                offer(e, {}, emitter.origin, length(emitter.origin - eye));
             }
         }
     });
@@ -372,10 +420,16 @@ std::optional<Pick> pickAt(World& world, const SceneDef& scene, const RenderOutp
         if (!b.dynamic() || b.frozen) {
             return;
         }
-        if (auto t = hitSphere(ray, b.position, boundingRadius(b))) {
-            const Vec3 hit = ray.origin + ray.direction * *t;
-            const Vec3 local = rotate(conjugate(b.orientation), hit - b.position);
-            offer(e, {local.x, local.y, local.z}, hit, *t);
+        if (b.shape == ShapeKind::Sphere) {
+            if (auto t = hitSphere(ray, b.position, b.radius)) {
+                const Vec3 hit = ray.origin + ray.direction * *t;
+                const Vec3 local = rotate(conjugate(b.orientation), hit - b.position);
+                offer(e, {local.x, local.y, local.z}, hit, *t);
+            }
+        } else if (auto h = hitBox(ray, b.position, b.orientation, localBox(b))) {
+            // the box that holds the shape (exact for boxes): the held point is on or near the surface
+            offer(e, {h->second.x, h->second.y, h->second.z}, ray.origin + ray.direction * h->first,
+                  h->first);
         }
     });
     world.view<const RigidBody2D, const Transform>().each(
@@ -384,11 +438,9 @@ std::optional<Pick> pickAt(World& world, const SceneDef& scene, const RenderOutp
                 return;
             }
             const Vec3 centre{b.position[0], b.position[1], tr.position.z};
-            if (auto t = hitSphere(ray, centre, boundingRadius(b))) {
-                const Vec3 hit = ray.origin + ray.direction * *t;
-                const double dx = hit.x - centre.x, dy = hit.y - centre.y;
-                const double c = std::cos(b.angle), s = std::sin(b.angle);
-                offer(e, {c * dx + s * dy, -s * dx + c * dy}, {hit.x, hit.y, centre.z}, *t);
+            if (auto h = hitBox(ray, centre, aboutZ(b.angle), localBox(b))) {
+                const Vec3 hit = ray.origin + ray.direction * h->first;
+                offer(e, {h->second.x, h->second.y}, {hit.x, hit.y, centre.z}, h->first);
             }
         });
     return best;
@@ -444,10 +496,11 @@ public:
 
 private:
     void startSession();
+    void openRecorder();
     void finishSession();
     void handleKeys();
     void handleMouse();
-    void addEvent(const std::string& entity, const std::string& action, std::vector<double> value,
+    bool addEvent(const std::string& entity, const std::string& action, std::vector<double> value,
                   const Vec3& position);
     void step();
     void drawOverlay();
@@ -480,10 +533,13 @@ private:
 };
 
 void Viewer::startSession() {
+    m_sim.reset(); // the old scene's memory (and GL objects) go before the new one is built
     m_sim = std::make_unique<Simulation>(m_catalog, m_request.scenarioPath, m_request.scenarioText,
                                          m_request.sets, m_request.memoryCap);
     const SceneDef& scene = m_sim->scene();
-    m_loop = std::make_unique<FixedLoop>(secondsToNs(scene.dt), scene.substeps);
+    // room for twice a frame's steps: paced at 60 Hz, a frame that wakes a little early takes no step and
+    // the next one owes two; with a cap of one frame's steps that step would be dropped every time
+    m_loop = std::make_unique<FixedLoop>(secondsToNs(scene.dt), 2 * scene.substeps);
     m_loop->advanceTo(m_clock); // starts the loop's clock
     m_simFrames = 0;
     m_held.reset();
@@ -492,6 +548,9 @@ void Viewer::startSession() {
     out.enabled = true;
     out.externalContext = true;
     out.keepFrames = false;
+}
+
+void Viewer::openRecorder() {
     ++m_session;
     if (!m_request.record.empty()) {
         const std::string path = sessionPath(m_request.record, m_session);
@@ -509,7 +568,7 @@ void Viewer::finishSession() {
     }
 }
 
-void Viewer::addEvent(const std::string& entity, const std::string& action, std::vector<double> value,
+bool Viewer::addEvent(const std::string& entity, const std::string& action, std::vector<double> value,
                       const Vec3& position) {
     EventDef ev;
     ev.step = m_sim->step(); // applies at the start of the next step
@@ -519,9 +578,10 @@ void Viewer::addEvent(const std::string& entity, const std::string& action, std:
     ev.position = {position.x, position.y, position.z};
     if (auto problem = resolveEvent(m_catalog, m_sim->world(), ev, {})) {
         m_status = "cannot " + action + " '" + entity + "': " + *problem;
-        return;
+        return false;
     }
     m_sim->addEvents({ev});
+    return true;
 }
 
 /// One fixed step, and the replay's frame when it completes one.
@@ -555,6 +615,7 @@ void Viewer::handleKeys() {
         case GLFW_KEY_R:
             finishSession();
             startSession();
+            openRecorder();
             updateOutput();
             m_status = m_recorder ? "reset: recording to " + m_recorder->path() : "reset";
             break;
@@ -581,8 +642,9 @@ void Viewer::handleKeys() {
                 break;
             }
             const int next = (current + 1) % 5;
-            addEvent(name, "set_integrator", {double(next)}, {});
-            m_status = "'" + name + "' now integrates with " + kIntegrators[next];
+            if (addEvent(name, "set_integrator", {double(next)}, {})) {
+                m_status = "'" + name + "' now integrates with " + kIntegrators[next];
+            }
             break;
         }
         case GLFW_KEY_Q:
@@ -631,10 +693,12 @@ void Viewer::handleMouse() {
     if (m_drag == Drag::None && !io.WantCaptureMouse) {
         if (left) {
             m_held = pickAt(m_sim->world(), scene, out, x, y);
-            if (m_held) {
+            if (m_held && !addEvent(m_held->name, "grab", m_held->value, m_held->point)) {
+                m_held.reset(); // said why in the status line
+                m_drag = Drag::Orbit;
+            } else if (m_held) {
                 m_drag = Drag::Hold;
                 m_heldTarget = m_held->point;
-                addEvent(m_held->name, "grab", m_held->value, m_held->point);
                 if (m_sim->world().has<SpringNetwork>(m_held->entity)) {
                     m_selected = m_held->name;
                 }
@@ -769,10 +833,14 @@ void Viewer::drawOverlay() {
 }
 
 int Viewer::run() {
-    // the scene first: a scenario error is the user's (exit 2) whether or not there is a display
+    // the scene first: a scenario error is the user's (exit 2) whether or not there is a display; the
+    // outputs once there is a window, so that a run that cannot open one overwrites nothing
     startSession();
+    if (!m_request.profile.empty() && !std::ofstream(m_request.profile, std::ios::app)) {
+        std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
+        return kExitFailure;
+    }
     if (!std::getenv("DISPLAY") && !std::getenv("WAYLAND_DISPLAY")) {
-        finishSession();
         std::fprintf(stderr,
                      "tumble: view needs a display, and there is none here (DISPLAY is not set); "
                      "`tumble run %s` simulates headlessly and writes PNG frames (--png-every, --video)\n",
@@ -781,13 +849,12 @@ int Viewer::run() {
     }
     glfwSetErrorCallback([](int, const char* message) { g_glfwError = message; });
     if (!glfwInit()) {
-        finishSession();
         std::fprintf(stderr,
                      "tumble: view cannot open a window here (%s); `tumble run %s` simulates headlessly\n",
                      g_glfwError.c_str(), m_request.scenarioPath.c_str());
         return kExitFailure;
     }
-    const SceneDef& scene = m_sim->scene();
+    const SceneDef scene = m_sim->scene(); // a copy: a reset replaces the simulation
     glfwWindowHint(GLFW_CLIENT_API, GLFW_OPENGL_ES_API);
     glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_EGL_CONTEXT_API);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -795,7 +862,6 @@ int Viewer::run() {
     const std::string title = "tumble view: " + scene.name;
     m_window = glfwCreateWindow(scene.renderWidth, scene.renderHeight, title.c_str(), nullptr, nullptr);
     if (!m_window) {
-        finishSession();
         glfwTerminate();
         std::fprintf(stderr,
                      "tumble: view cannot open a window with an OpenGL ES 3 context (%s); `tumble run %s` "
@@ -819,8 +885,16 @@ int Viewer::run() {
     ImGui::StyleColorsDark();
     ImGui_ImplGlfw_InitForOther(m_window, true); // chains to the callbacks above
     int status = kExitOk;
-    {
+    auto closeWindow = [&] {
+        ImGui_ImplGlfw_Shutdown();
+        ImGui::DestroyContext();
+        glfwDestroyWindow(m_window);
+        glfwTerminate();
+        g_input = nullptr;
+    };
+    try {
         OverlayRenderer overlay;
+        openRecorder();
         m_camera = OrbitCamera::from(scene);
         m_paused = m_request.paused;
         const SteadyClock wall;
@@ -885,7 +959,7 @@ int Viewer::run() {
         finishSession();
         if (!m_request.profile.empty()) {
             std::ofstream profile(m_request.profile);
-            profile << budgetSummaryJson(m_sim->profiler(), scene, m_sim->frame());
+            profile << budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame());
             if (!profile) {
                 std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
                 status = kExitFailure;
@@ -893,14 +967,19 @@ int Viewer::run() {
                 m_recordings.push_back(m_request.profile + " (the budget summary)");
             }
         }
-        // the renderer's GL objects go with the context that made them
+        // the renderer frees its GL objects while the window's context is still current
         m_sim.reset();
+    } catch (...) {
+        // keep what was recorded (the replay ends properly), close the window, then say what happened
+        try {
+            finishSession();
+        } catch (...) {
+        }
+        m_sim.reset();
+        closeWindow();
+        throw;
     }
-    ImGui_ImplGlfw_Shutdown();
-    ImGui::DestroyContext();
-    glfwDestroyWindow(m_window);
-    glfwTerminate();
-    g_input = nullptr;
+    closeWindow();
     for (const std::string& w : m_recordings) {
         std::printf("wrote %s\n", w.c_str());
     }

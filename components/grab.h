@@ -13,6 +13,7 @@ struct Grab {
     std::uint32_t mass = 0; ///< spring network: the held mass
     Vec3 local;             ///< rigid body: the held point, in the body's frame (2D: x, y)
     Vec3 target;            ///< m, world: where the spring pulls the point to
+    double heldMass = 0.0;  ///< kg: a network's free mass when it was grabbed (the spring scales with it)
 };
 
 } // namespace tumble

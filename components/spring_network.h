@@ -56,6 +56,7 @@ struct SpringNetwork {
     double cgTolerance = 1e-3;         ///< implicit Euler: relative residual the solve stops at
     int cgMaxIterations = 200;         ///< implicit Euler: iterations at most per step
     bool doublePrecisionSolve = false; ///< implicit Euler: solve in double rather than float
+    bool implicitCharged = false;      ///< the load charged the memory of implicit Euler's solver
 
     // shape, for wind on surfaces, the dump and the renderer
     NetworkKind kind = NetworkKind::Springs;

@@ -15,6 +15,9 @@ namespace tumble {
 
 namespace {
 
+/// What a network loaded explicit may take to switch to implicit Euler without a charge at load.
+constexpr double kMaxUnchargedBytes = 64.0 * 1024 * 1024;
+
 bool isNetwork(const World& w, Entity e) {
     return w.has<SpringNetwork>(e);
 }
@@ -47,8 +50,11 @@ void moveEmitter(World& world, Entity e, const Vec3& to) {
 void hold(World& world, Entity e, const EventDef& ev) {
     Grab grab;
     grab.target = targetOf(ev);
-    if (isNetwork(world, e)) {
+    if (const SpringNetwork* net = world.tryGet<SpringNetwork>(e)) {
         grab.mass = static_cast<std::uint32_t>(ev.value[0]);
+        for (std::size_t j = 0; j < net->invMass.size(); ++j) {
+            grab.heldMass += net->pinned[j] ? 0.0 : 1.0 / net->invMass[j];
+        }
     } else if (isBody(world, e)) {
         grab.local = {ev.value[0], ev.value[1], ev.value[2]};
     } else if (isBody2D(world, e)) {
@@ -56,6 +62,8 @@ void hold(World& world, Entity e, const EventDef& ev) {
     } else if (isEmitter(world, e)) {
         moveEmitter(world, e, grab.target);
     }
+    // added at once, not through commands(): a drag at the same step, applied next, must find it (events
+    // are applied outside any view, so the world is not locked)
     if (Grab* held = world.tryGet<Grab>(e)) {
         *held = grab;
     } else {
@@ -134,12 +142,23 @@ void registerGrabEvents(Catalog& catalog) {
          "a spring network",
          {"value"},
          isNetwork,
-         [](const World&, Entity, const EventDef& ev) -> std::optional<std::string> {
+         [](const World& w, Entity e, const EventDef& ev) -> std::optional<std::string> {
              if (ev.value.size() != 1 || ev.value[0] < 0 || ev.value[0] > 4 ||
                  ev.value[0] != std::floor(ev.value[0])) {
                  return std::string(
                      "needs value = k: 0 explicit_euler, 1 midpoint, 2 rk4, 3 symplectic_euler, "
                      "4 implicit_euler");
+             }
+             // the memory cap is charged at load, by the integrator loaded: implicit Euler's solver costs
+             // about 400 B a mass and 270 B a spring more, which a network loaded explicit may take only
+             // while it is small
+             const SpringNetwork& net = w.get<SpringNetwork>(e);
+             const double extra = double(net.x.size()) * 400.0 + double(net.links.size()) * 270.0;
+             if (ev.value[0] == 4 && !net.implicitCharged && extra > kMaxUnchargedBytes) {
+                 return "switching to implicit_euler would take about " +
+                        std::to_string(int(extra / 1048576.0)) +
+                        " MiB that the load did not charge; load the network with integrator = "
+                        "\"implicit_euler\" instead";
              }
              return std::nullopt;
          },
@@ -149,16 +168,12 @@ void registerGrabEvents(Catalog& catalog) {
 }
 
 /// Backward Euler of the mouse spring on one mass of a network.
-void pullMass(SpringNetwork& net, const Grab& grab, double dt) {
+void pullMass(SpringNetwork& net, const Grab& grab, double omega, double dt) {
     const std::size_t i = grab.mass;
     if (net.frozen || i >= net.x.size() || net.pinned[i]) {
         return;
     }
-    double total = 0.0;
-    for (std::size_t j = 0; j < net.invMass.size(); ++j) {
-        total += net.pinned[j] ? 0.0 : 1.0 / net.invMass[j];
-    }
-    const double k = total * kGrabOmega * kGrabOmega, c = 2.0 * total * kGrabOmega;
+    const double k = grab.heldMass * omega * omega, c = 2.0 * grab.heldMass * omega;
     // m (v' - v) = dt (k (target - x - dt v') - c v')
     const double a = dt * net.invMass[i];
     net.v[i] = (net.v[i] + (grab.target - net.x[i]) * (a * k)) * (1.0 / (1.0 + a * c + a * dt * k));
@@ -168,10 +183,14 @@ void pullMass(SpringNetwork& net, const Grab& grab, double dt) {
 
 void pullGrabs(World& world, const StepContext& ctx) {
     const double dt = ctx.dt;
-    const double k = kGrabOmega * kGrabOmega, c = kGrabOmega;
+    // a body held away from its centre answers as a lighter one (down to a quarter of its mass for a point
+    // on a box's surface): the explicit force stays stable while 4 omega dt <= 1, so long steps get a softer
+    // spring
+    const double omega = std::min(kGrabOmega, 0.25 / dt);
+    const double k = omega * omega, c = omega;
     world.view<const Grab>().each([&](Entity e, const Grab& grab) {
         if (SpringNetwork* net = world.tryGet<SpringNetwork>(e)) {
-            pullMass(*net, grab, dt);
+            pullMass(*net, grab, omega, dt);
         } else if (RigidBody* b = world.tryGet<RigidBody>(e); b && b->dynamic() && !b->frozen) {
             const Vec3 p = b->toWorld(grab.local);
             const Vec3 f = (grab.target - p) * (b->mass * k) - b->velocityAt(p) * (b->mass * c);

@@ -4,9 +4,9 @@
 #include "components/render_history.h"
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
+#include "components/spring_network.h"
 #include "components/transform.h"
 #include "components/water.h"
-#include "components/spring_network.h"
 #include "engine/gl_context.h"
 #include "engine/render_output.h"
 #include "engine/scene.h"
@@ -202,15 +202,45 @@ struct Renderer {
     Mesh ball;                ///< a coarse sphere, drawn once per mass (instanced)
     GLuint ballInstances = 0; ///< per mass: offset and radius
     GLuint clothVao = 0, clothVbo = 0, flatVao = 0, flatVbo = 0;
-    GLuint particleVao = 0, particleVbo = 0; ///< per particle: centre, colour, size (instanced quads)
-    std::vector<float> instances;            ///< scratch: ball instances
-    std::vector<float> clothVertices;        ///< scratch: position + normal per corner
-    std::vector<Vec3> normals;               ///< scratch: per-mass normals of a cloth
-    std::vector<Vec3> positions;             ///< scratch: a network's masses between two steps
-    std::vector<FlatVertex> flat;            ///< scratch: line vertices or particle instances
-    std::vector<std::uint8_t> pixels;        ///< the last image read back
+    GLuint particleVao = 0, particleVbo = 0;      ///< per particle: centre, colour, size (instanced quads)
+    std::vector<float> instances;                 ///< scratch: ball instances
+    std::vector<float> clothVertices;             ///< scratch: position + normal per corner
+    std::vector<Vec3> normals;                    ///< scratch: per-mass normals of a cloth
+    std::vector<Vec3> positions;                  ///< scratch: a network's masses between two steps
+    std::vector<FlatVertex> flat;                 ///< scratch: line vertices or particle instances
+    std::vector<std::uint8_t> pixels;             ///< the last image read back
     std::map<const ShapeMesh*, Mesh> shapeMeshes; ///< convex hulls and meshes, uploaded once
     bool drawn = false;
+    bool live = false; ///< a context is current and the objects below were made in it
+
+    Renderer() = default;
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+    /// Frees the GL objects while their context is current: a window's context (tumble view) outlives
+    /// the simulations it draws, one after another on each reset. The target goes before the context.
+    ~Renderer() {
+        if (!live) {
+            return; // no context was had: nothing was made
+        }
+        target.reset();
+        for (GLuint program : {meshProgram, flatProgram, particleProgram}) {
+            glDeleteProgram(program);
+        }
+        std::vector<Mesh> meshes{sphere, cube, cylinder, plane, ball};
+        for (const auto& [shape, mesh] : shapeMeshes) {
+            meshes.push_back(mesh);
+        }
+        for (const Mesh& m : meshes) {
+            glDeleteBuffers(1, &m.vbo);
+            glDeleteVertexArrays(1, &m.vao);
+        }
+        for (GLuint vao : {clothVao, flatVao, particleVao}) {
+            glDeleteVertexArrays(1, &vao);
+        }
+        for (GLuint buffer : {ballInstances, clothVbo, flatVbo, particleVbo}) {
+            glDeleteBuffers(1, &buffer);
+        }
+    }
 };
 
 void setupFlatAttributes() {
@@ -236,6 +266,7 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
         r.context = std::make_unique<GlContext>();
         output.device = r.context->description();
     }
+    r.live = true;
     r.target = std::make_unique<Framebuffer>(output.width > 0 ? output.width : scene.renderWidth,
                                              output.height > 0 ? output.height : scene.renderHeight);
     const std::string shaders = assetDirectory() + "/shaders/";
@@ -361,9 +392,9 @@ void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat&
     position = before->position + (position - before->position) * alpha;
     // normalised linear blend of the quaternions, taken the short way round
     const Quat& a = before->orientation;
-    const double sign = a.x * orientation.x + a.y * orientation.y + a.z * orientation.z + a.w * orientation.w < 0.0
-                            ? -1.0
-                            : 1.0;
+    const double sign =
+        a.x * orientation.x + a.y * orientation.y + a.z * orientation.z + a.w * orientation.w < 0.0 ? -1.0
+                                                                                                    : 1.0;
     Quat q{a.x + (sign * orientation.x - a.x) * alpha, a.y + (sign * orientation.y - a.y) * alpha,
            a.z + (sign * orientation.z - a.z) * alpha, a.w + (sign * orientation.w - a.w) * alpha};
     const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
@@ -420,7 +451,8 @@ void drawColliders(World& world, Renderer& r, double alpha) {
             break;
         }
     });
-    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b, const Transform& t) {
+    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b,
+                                                              const Transform& t) {
         const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
         Quat q = aboutZ(b.angle);
         Vec3 at{b.position[0], b.position[1], t.position.z};
@@ -428,11 +460,13 @@ void drawColliders(World& world, Renderer& r, double alpha) {
         const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
         switch (b.shape) {
         case Shape2DKind::Box:
-            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour, false);
+            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour,
+                 false);
             break;
         case Shape2DKind::Circle:
             // the unit cylinder stands along y: lay it along z
-            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour, false);
+            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour,
+                 false);
             break;
         case Shape2DKind::Polygon: {
             const Mesh prism = upload(prismMesh(b.vertices));
@@ -475,8 +509,10 @@ void drawWater(const Water& w, Renderer& r) {
     auto normal = [&](int i, int k) {
         const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, w.nx - 1);
         const int k0 = std::max(k - 1, 0), k1 = std::min(k + 1, w.nz - 1);
-        const double sx = (w.h[std::size_t(k) * w.nx + i1] - w.h[std::size_t(k) * w.nx + i0]) / (w.dx() * (i1 - i0));
-        const double sz = (w.h[std::size_t(k1) * w.nx + i] - w.h[std::size_t(k0) * w.nx + i]) / (w.dz() * (k1 - k0));
+        const double sx =
+            (w.h[std::size_t(k) * w.nx + i1] - w.h[std::size_t(k) * w.nx + i0]) / (w.dx() * (i1 - i0));
+        const double sz =
+            (w.h[std::size_t(k1) * w.nx + i] - w.h[std::size_t(k0) * w.nx + i]) / (w.dz() * (k1 - k0));
         const Vec3 n{-sx, 1.0, -sz};
         return n * (1.0 / length(n));
     };
@@ -583,7 +619,8 @@ void renderWorld(World& world, const StepContext& ctx) {
         const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions);
         for (const SpringLink& s : net.links) {
             for (std::uint32_t i : {s.a, s.b}) {
-                r.flat.push_back({float(x[i].x), float(x[i].y), float(x[i].z), 0.2f, 0.2f, 0.22f, 1.0f, 0.0f});
+                r.flat.push_back(
+                    {float(x[i].x), float(x[i].y), float(x[i].z), 0.2f, 0.2f, 0.22f, 1.0f, 0.0f});
             }
         }
         drawLines(r);
@@ -679,7 +716,8 @@ std::array<float, 16> viewProjection(const SceneDef& scene, const RenderOutput* 
     const Vec3 target = own ? Vec3{output->target[0], output->target[1], output->target[2]}
                             : Vec3{scene.cameraTarget[0], scene.cameraTarget[1], scene.cameraTarget[2]};
     const bool sized = output && output->width > 0 && output->height > 0;
-    const double aspect = sized ? double(output->width) / output->height : double(scene.renderWidth) / scene.renderHeight;
+    const double aspect =
+        sized ? double(output->width) / output->height : double(scene.renderWidth) / scene.renderHeight;
     return multiply(perspective(scene.cameraFovDeg, aspect, 0.05, 500.0), lookAt(eye, target));
 }
 
@@ -732,11 +770,12 @@ void rememberPositions(World& world, const StepContext&) {
             remember(e, {b.position, b.orientation});
         }
     });
-    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b, const Transform& t) {
-        if (b.dynamic()) {
-            remember(e, {{b.position[0], b.position[1], t.position.z}, aboutZ(b.angle)});
-        }
-    });
+    world.view<const RigidBody2D, const Transform>().each(
+        [&](Entity e, const RigidBody2D& b, const Transform& t) {
+            if (b.dynamic()) {
+                remember(e, {{b.position[0], b.position[1], t.position.z}, aboutZ(b.angle)});
+            }
+        });
 }
 
 void registerRenderSystem(Catalog& catalog) {

@@ -92,6 +92,7 @@ void attach(TableReader& r, World& world, Entity entity, SpringNetwork net) {
     r.charge("", bytes,
              r.where() + " (" + std::to_string(net.x.size()) + " masses, " + std::to_string(net.links.size()) +
                  " springs" + (implicit ? ", implicit" : "") + ")");
+    net.implicitCharged = implicit;
     world.emplace<SpringNetwork>(entity, std::move(net));
     world.emplace<SpringWorkspace>(entity);
 }
