@@ -184,5 +184,18 @@ length = 1.0
     expectError("entity = \"rope\"\naction = \"release\"\nvalue = 1\n", "value");
 }
 
+TEST(GrabSystem, SwitchingABigExplicitNetworkToImplicitIsRefusedByTheMemoryTheLoadCharged) {
+    const std::string cloth = "[scene]\nname = \"big\"\n[[entity]]\nname = \"sheet\"\n[entity.cloth]\nrows = 300\n"
+                              "cols = 300\nintegrator = \"symplectic_euler\"\n[[event]]\nframe = 1\nentity = "
+                              "\"sheet\"\naction = \"set_integrator\"\nvalue = ";
+    try {
+        simulate(cloth + "4\n");
+        ADD_FAILURE() << "a 300 x 300 cloth loaded explicit switched to implicit Euler uncharged";
+    } catch (const ScenarioError& e) {
+        EXPECT_NE(std::string(e.what()).find("did not charge"), std::string::npos) << e.what();
+    }
+    EXPECT_NO_THROW(simulate(cloth + "1\n")) << "explicit to explicit costs nothing more";
+}
+
 } // namespace
 } // namespace tumble
