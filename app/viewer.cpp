@@ -542,6 +542,7 @@ void Viewer::startSession() {
     m_loop = std::make_unique<FixedLoop>(secondsToNs(scene.dt), 2 * scene.substeps);
     m_loop->advanceTo(m_clock); // starts the loop's clock
     m_simFrames = 0;
+    m_droppedNs = 0;
     m_held.reset();
     m_drag = Drag::None;
     RenderOutput& out = m_sim->world().setResource<RenderOutput>();
