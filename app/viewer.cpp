@@ -484,9 +484,6 @@ struct InputState {
 
 InputState* g_input = nullptr;
 
-constexpr const char* kIntegrators[] = {"explicit_euler", "midpoint", "rk4", "symplectic_euler",
-                                        "implicit_euler"};
-
 /// The viewer's state between frames.
 class Viewer {
 public:
@@ -642,9 +639,10 @@ void Viewer::handleKeys() {
                 m_status = "no spring network to change the integrator of";
                 break;
             }
-            const int next = (current + 1) % 5;
+            const int next = (current + 1) % kIntegratorCount;
             if (addEvent(name, "set_integrator", {double(next)}, {})) {
-                m_status = "'" + name + "' now integrates with " + kIntegrators[next];
+                m_status = "'" + name + "' now integrates with " +
+                           std::string(integratorName(static_cast<Integrator>(next)));
             }
             break;
         }

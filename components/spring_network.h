@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 namespace tumble {
@@ -16,6 +17,15 @@ namespace tumble {
 /// How a spring network is advanced in time (see systems/spring_integrators.h for each one's order,
 /// stability and cost).
 enum class Integrator : std::uint8_t { ExplicitEuler, Midpoint, Rk4, SymplecticEuler, ImplicitEuler };
+
+/// The integrators' names in scenarios and dumps, in the enum's order.
+inline constexpr std::string_view kIntegratorNames[] = {"explicit_euler", "midpoint", "rk4",
+                                                        "symplectic_euler", "implicit_euler"};
+inline constexpr int kIntegratorCount = 5;
+
+inline std::string_view integratorName(Integrator i) {
+    return kIntegratorNames[static_cast<std::size_t>(i)];
+}
 
 /// What built the network; it decides the dump's kind and how the renderer draws it.
 enum class NetworkKind : std::uint8_t { Springs, Rope, Cloth, SoftBody };
@@ -48,7 +58,7 @@ struct SpringNetwork {
     std::vector<std::uint8_t> pinned; ///< 1 if the mass is held in place
     std::vector<SpringLink> links;
     std::vector<SpringAnchor> anchors; ///< masses held by rigid bodies (set by [[joint]] type "anchor")
-    double drag = 0.0; ///< N s/m, global -drag v on every mass
+    double drag = 0.0;                 ///< N s/m, global -drag v on every mass
     Integrator integrator = Integrator::SymplecticEuler;
     double thickness = 0.0;            ///< m, kept between masses and collider surfaces
     double friction = 0.5;             ///< Coulomb coefficient against colliders (and itself)

@@ -23,13 +23,6 @@ constexpr std::size_t kMaxMasses = 1u << 20;
 constexpr std::int64_t kMaxClothVertices = 512 * 512;
 constexpr double kMaxSpeed = 1e4; // m/s: beyond it a network has blown up
 
-constexpr std::string_view kIntegratorNames[] = {"explicit_euler", "midpoint", "rk4", "symplectic_euler",
-                                                 "implicit_euler"};
-
-std::string_view integratorName(Integrator i) {
-    return kIntegratorNames[static_cast<std::size_t>(i)];
-}
-
 /// Keys every network takes: integrator, drag, contact and solver settings.
 void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrator) {
     const std::string name =
@@ -87,11 +80,12 @@ Vec3 readVec3(TableReader& r, const toml::node& n, std::string_view key) {
 /// body over two steps (implicit: the matrix blocks, the multigrid levels and the CG vectors).
 void attach(TableReader& r, World& world, Entity entity, SpringNetwork net) {
     const bool implicit = net.integrator == Integrator::ImplicitEuler;
-    const std::uint64_t bytes = net.x.size() * (implicit ? 600u : 200u) + net.links.size() * (implicit ? 350u : 80u) +
+    const std::uint64_t bytes = net.x.size() * (implicit ? 600u : 200u) +
+                                net.links.size() * (implicit ? 350u : 80u) +
                                 (net.selfCollision ? net.triangles.size() * 300u : 0u);
     r.charge("", bytes,
-             r.where() + " (" + std::to_string(net.x.size()) + " masses, " + std::to_string(net.links.size()) +
-                 " springs" + (implicit ? ", implicit" : "") + ")");
+             r.where() + " (" + std::to_string(net.x.size()) + " masses, " +
+                 std::to_string(net.links.size()) + " springs" + (implicit ? ", implicit" : "") + ")");
     net.implicitCharged = implicit;
     world.emplace<SpringNetwork>(entity, std::move(net));
     world.emplace<SpringWorkspace>(entity);
@@ -233,7 +227,8 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scen
     readCommon(r, net, "implicit_euler");
     net.selfCollision = selfCollision;
     if (selfCollision && net.thickness <= 0.0) {
-        r.fail("thickness", "self-collision keeps the cloth's sheets a 'thickness' apart: it must be above 0");
+        r.fail("thickness",
+               "self-collision keeps the cloth's sheets a 'thickness' apart: it must be above 0");
     }
     // masses closer than the thickness along the sheet would collide with their own neighbours' triangles
     // (left to the springs), and every vertex would face a crowd of triangles each step
@@ -347,8 +342,8 @@ std::optional<std::string> needsFreeableIndices(const World& world, Entity e, co
     for (const SpringAnchor& a : world.get<SpringNetwork>(e).anchors) {
         for (double d : ev.value) {
             if (static_cast<std::uint32_t>(d) == a.mass) {
-                return "mass " + std::to_string(a.mass) + " is held by a rigid body ([[joint]] type \"anchor\"), " +
-                       "not by a pin";
+                return "mass " + std::to_string(a.mass) +
+                       " is held by a rigid body ([[joint]] type \"anchor\"), " + "not by a pin";
             }
         }
     }
@@ -429,8 +424,8 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
     for (const SpringAnchor& a : net.anchors) {
         RigidBody& body = world.get<RigidBody>(a.body);
         // the integrators leave a pinned mass where it was, at rest; a held one moves with its body, as the
-        // implicit solve assumed it would (its right-hand side carries the pinned mass's velocity): leaving it
-        // behind put its neighbours a step ahead of it, a force along the body's motion that pumped energy
+        // implicit solve assumed it would (its right-hand side carries the pinned mass's velocity): leaving
+        // it behind put its neighbours a step ahead of it, a force along the body's motion that pumped energy
         // into a crate on a rope until it flew apart
         const Vec3 start = body.toWorld(a.local);
         net.v[a.mass] = body.velocityAt(start);
