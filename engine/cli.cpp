@@ -103,6 +103,7 @@ struct RunOptions {
     std::string from;                      ///< --from SNAPSHOT
     bool verify = false;                   ///< replay --verify
     bool realtime = false;                 ///< run --realtime
+    bool checkContact = false;             ///< run/replay --check-contact
     bool paused = false;                   ///< view --paused
     std::optional<double> physicsMs;       ///< budget --physics-ms
     std::optional<double> scale;           ///< budget --scale
@@ -297,6 +298,7 @@ std::unique_ptr<Simulation> load(const Catalog& catalog, const Source& src) {
 int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     const std::unique_ptr<Simulation> owned = load(catalog, src);
     Simulation& sim = *owned;
+    sim.world().setResource<RunChecks>().contact = o.checkContact;
     const SceneDef& scene = sim.scene();
     const auto substeps = static_cast<std::uint64_t>(scene.substeps);
     if (src.replay) {
@@ -876,6 +878,9 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
             ->type_name("FILE");
         cmd->add_flag("--quiet", o.quiet, "No progress bar and no summary");
         cmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+        cmd->add_flag("--check-contact", o.checkContact,
+                      "After every step, test every pair of a self-colliding cloth's triangles that share no "
+                      "corner for an exact crossing; the first is reported like a blow-up and the run exits 1");
     }
     run->add_flag("--realtime", o.realtime,
                   "Pace to the wall clock at the scene's frame rate; when physics runs over its frame, at most "

@@ -40,6 +40,15 @@ int Profiler::addSlot(std::string name, Phase phase, bool isPhase) {
     return static_cast<int>(m_slots.size() - 1);
 }
 
+int Profiler::stageSlot(std::string_view name, Phase phase) {
+    for (std::size_t i = 0; i < m_slots.size(); ++i) {
+        if (!m_slots[i].isPhase && m_slots[i].name == name) {
+            return static_cast<int>(i);
+        }
+    }
+    return addSlot(std::string(name), phase, false);
+}
+
 void Profiler::beginFrame(std::uint64_t frame) {
     m_frame = frame;
     m_frameStartNs = nowNs();

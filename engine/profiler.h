@@ -62,6 +62,10 @@ public:
     /// A new timer slot; the returned id is what ScopedTimer takes.
     int addSlot(std::string name, Phase phase, bool isPhase);
     std::size_t slotCount() const { return m_slots.size(); }
+    /// The slot of a stage inside a system ("system.stage"), made on first use: Box2D's b2Profile
+    /// idea, so a system's cost can be seen stage by stage. Stages are not phases: they do not add to
+    /// the frame's physics time, which their system's phase already holds.
+    int stageSlot(std::string_view name, Phase phase);
 
     /// Keep every timed scope as a trace event (memory grows with the run).
     void enableTrace(bool on) { m_trace = on; }

@@ -14,4 +14,9 @@ struct RunReport {
     std::vector<std::string> notes;    ///< said, but expected by the scene (e.g. on_blow_up = "freeze")
 };
 
+/// A world resource: checks a run makes on itself, asked for on the command line.
+struct RunChecks {
+    bool contact = false; ///< --check-contact: an exact crossing audit of self-colliding cloth after every step
+};
+
 } // namespace tumble

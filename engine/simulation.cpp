@@ -72,6 +72,7 @@ void Simulation::beginFrame() {
     m_ctx.dt = scene.dt;
     m_ctx.seed = scene.seed;
     m_ctx.frame = m_frame;
+    m_ctx.profiler = &m_profiler;
 }
 
 void Simulation::runStep() {

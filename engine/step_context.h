@@ -6,6 +6,8 @@
 
 namespace tumble {
 
+class Profiler;
+
 /// Context for one run of a phase.
 struct StepContext {
     double dt = 1.0 / 60.0;  ///< fixed physics step, s (the scene's dt)
@@ -14,6 +16,7 @@ struct StepContext {
     double time = 0.0;       ///< simulated time at the start of this step, s (= step * dt)
     std::uint64_t seed = 1;  ///< the scene seed; derive per-purpose streams with streamSeed()
     double alpha = 1.0;      ///< frame phase: where the frame falls between the last two fixed steps (1: at the last)
+    Profiler* profiler = nullptr; ///< for a system that times its own stages (profileSlot); null when untimed
 };
 
 } // namespace tumble

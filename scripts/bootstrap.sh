@@ -14,7 +14,7 @@ jobs=$(nproc 2>/dev/null || echo 2)
 # the Debian packages the build and the tests need; one list, kept in step with README.md
 packages=(
     g++ cmake ninja-build pkg-config git
-    libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev libbullet-dev libbox2d-dev
+    libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev libbullet-dev libbox2d-dev libcgal-dev
     libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
     libegl-dev libgles-dev libegl-mesa0 ffmpeg
     clang libclang-rt-14-dev
@@ -71,8 +71,9 @@ asan)
     # check off, AddressSanitizer and UndefinedBehaviorSanitizer still on; every other test checks leaks.
     sanitizer_env=(LP_NUM_THREADS=0 MESA_SHADER_CACHE_DISABLE=true UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1)
     drawing='RenderSystem|Renders'
-    # the sweep's scenarios run through the sanitized program too, fewer of them (each is slower)
-    env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 TUMBLE_SWEEP_COUNT=200 \
+    # the sweep's scenarios and the random cloth drops run in the sanitized build too, fewer of them (each is
+    # slower)
+    env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 TUMBLE_SWEEP_COUNT=200 TUMBLE_DROP_COUNT=3 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs" --label-exclude budget -E "$drawing"
     env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs" --label-exclude budget -R "$drawing"

@@ -1,91 +1,1038 @@
 #include "systems/cloth_collision.h"
 
+#include "components/name.h"
+#include "components/rigid_body.h"
 #include "components/spring_network.h"
+#include "engine/profiler.h"
+#include "engine/run_report.h"
+#include "systems/ccd.h"
+#include "systems/collision_system.h"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <string>
 #include <tuple>
 
 namespace tumble {
 
 namespace {
 
-constexpr int kProximityPasses = 4;
-constexpr double kSettled = 0.99; ///< a pair pushed from closer than this fraction of the thickness counts
+constexpr int kProximityPasses = 3;
+constexpr double kSettled = 0.99;       ///< a pair pushed from closer than this fraction of the thickness counts
 constexpr int kContinuousPasses = 4;
-constexpr double kGapFraction = 0.1; ///< a crossing is stopped this fraction of the thickness short
+constexpr double kGapFraction = 0.1;    ///< a stopped contact is left this fraction of the thickness apart
+constexpr double kDetectFraction = 0.05; ///< the continuous tests look for approaches closer than this fraction
+constexpr double kRestingFraction = 1.25; ///< a mass this close to a collider (in thicknesses) rests on it
+constexpr int kProjectionRounds = 6;
+constexpr int kProjectionIterations = 64;
+constexpr int kZoneRounds = 8;
+constexpr int kFreezeRounds = 16;
+constexpr double kMaxAmplification = 4.0; ///< a contact may move no point more than this times its own change
 
-/// One side of a contact: the masses of a network it involves.
-struct Patch {
-    SpringNetwork* net = nullptr;
-    std::uint32_t idx[3] = {0, 0, 0};
-    std::uint32_t count = 0;
-};
-
-/// Four points (or fewer) of one or two networks whose weighted sum q = sum w_k x_k is the separation of
-/// a contact: point minus closest triangle point, or edge point minus edge point.
-struct Stencil {
-    SpringNetwork* net[4];
-    std::uint32_t idx[4];
-    double w[4];
-
-    Vec3 sum(const std::vector<Vec3> SpringNetwork::*field) const {
-        Vec3 q;
-        for (int k = 0; k < 4; ++k) {
-            q += (net[k]->*field)[idx[k]] * w[k];
-        }
-        return q;
-    }
-    double inverseMass() const {
-        double m = 0.0;
-        for (int k = 0; k < 4; ++k) {
-            if (!net[k]->pinned[idx[k]]) {
-                m += w[k] * w[k] * net[k]->invMass[idx[k]];
-            }
-        }
-        return m;
-    }
-    /// Changes q by dq (in field x or v), sharing it by inverse mass and weight.
-    void apply(std::vector<Vec3> SpringNetwork::*field, const Vec3& dq) const {
-        // the free points must carry a fair share of the contact: a point at the very end of an edge whose
-        // others are pinned would otherwise be thrown by dq divided by its tiny weight
-        double all = 0.0;
-        for (int k = 0; k < 4; ++k) {
-            all += net[k]->invMass[idx[k]];
-        }
-        const double m = inverseMass();
-        if (m <= 1e-6 * all) {
-            return;
-        }
-        const Vec3 j = dq * (1.0 / m);
-        for (int k = 0; k < 4; ++k) {
-            if (!net[k]->pinned[idx[k]]) {
-                (net[k]->*field)[idx[k]] += j * (w[k] * net[k]->invMass[idx[k]]);
-            }
-        }
-    }
-};
-
+/// A self-colliding network in this step's flat arrays.
 struct Mesh {
-    SpringNetwork* net;
-    ClothCollision* cc;
+    Entity entity;
+    SpringNetwork* net = nullptr;
+    ClothCollision* cc = nullptr;
+    const Name* name = nullptr;
+    std::uint32_t vertexOffset = 0;
+    std::uint32_t triangleOffset = 0;
 };
 
 struct VertexTriangle {
-    std::uint32_t pm, p, tm, t; ///< mesh and mass of the point; mesh and triangle
-    bool operator<(const VertexTriangle& o) const { return std::tie(pm, p, tm, t) < std::tie(o.pm, o.p, o.tm, o.t); }
-    bool operator==(const VertexTriangle& o) const { return std::tie(pm, p, tm, t) == std::tie(o.pm, o.p, o.tm, o.t); }
+    std::uint32_t p, t;     ///< vertex and triangle, global
+    bool restClose = false; ///< closer than the thickness at rest: kept from crossing, not repelled
+    auto key() const { return std::tie(p, t); }
+    bool operator<(const VertexTriangle& o) const { return key() < o.key(); }
 };
 
 struct EdgeEdge {
-    std::uint32_t am, a0, a1, bm, b0, b1; ///< mesh and (sorted) masses of each edge
-    auto key() const { return std::tie(am, a0, a1, bm, b0, b1); }
+    std::uint32_t a0, a1, b0, b1; ///< the two edges' vertices, global, each edge sorted
+    bool restClose = false;       ///< as VertexTriangle::restClose
+    auto key() const { return std::tie(a0, a1, b0, b1); }
     bool operator<(const EdgeEdge& o) const { return key() < o.key(); }
-    bool operator==(const EdgeEdge& o) const { return key() == o.key(); }
 };
 
-/// Closest points of segments p0-p1 and q0-q1 (Ericson, Real-Time Collision Detection, 5.1.9).
+/// Up to four vertices whose weighted sum q = sum w_k x_k is the separation of a contact: a point minus
+/// the closest point of a triangle, or a point of one edge minus the closest point of the other.
+struct Stencil {
+    std::uint32_t i[4];
+    double w[4];
+};
+
+/// A contact kept by the inelastic projection: q . n must stay at least `gap`.
+struct Constraint {
+    Stencil s;
+    Vec3 n;
+    double gap;
+};
+
+/// The per-step arrays, kept from step to step so that a step allocates nothing once they have grown.
+struct ClothScratch {
+    std::vector<Mesh> meshes;
+    std::vector<Entity> layout;       ///< the meshes the global arrays were laid out for
+    std::vector<std::uint32_t> sizes; ///< and their vertex and triangle counts
+    // per vertex
+    std::vector<Vec3> x0, x, xc, v, xg; ///< start, current, candidate (as the step left it), velocity, at gather
+    std::vector<double> w;              ///< inverse mass for contacts: 0 when pinned
+    std::vector<Vec3> seat;             ///< the outward normal of the collider a mass rests on
+    std::vector<std::uint8_t> seated;   ///< 1 when the mass rests on a collider
+    std::vector<std::uint32_t> meshOf;
+    std::vector<std::uint32_t> vertexOwner; ///< the first triangle that holds the vertex
+    std::vector<std::uint32_t> parent;      ///< impact zones: union-find
+    // per triangle
+    std::vector<Triangle> tris;
+    std::vector<std::uint8_t> edgeOwned; ///< bit k: the first triangle with edge k
+    std::vector<Aabb> boxes;       ///< swept, inflated by the thickness
+    std::vector<Aabb> vertexBoxes; ///< per vertex, the same
+    Bvh tree;
+    // per step
+    std::vector<std::array<std::uint32_t, 2>> pairs;
+    std::vector<VertexTriangle> vt;
+    std::vector<EdgeEdge> ee;
+    std::vector<Constraint> constraints;
+    std::vector<Constraint> hits;      ///< contacts found by a collecting pass
+    std::vector<std::uint32_t> nearVt, nearEe; ///< candidates within twice the thickness (proximity)
+    std::vector<std::uint8_t> moved, movedBefore; ///< per vertex: moved during this continuous pass, the last
+    bool testAll = true;                          ///< the next continuous pass tests every candidate
+    std::vector<std::uint32_t> members;
+    std::vector<std::uint8_t> joined;  ///< per vertex: in an impact zone
+    std::vector<VertexTriangle> restVertexTriangle; ///< pairs within one cloth closer than its thickness at rest
+    std::vector<EdgeEdge> restEdgeEdge;
+    bool startChecked = false;                             ///< the audit has looked at this layout's first step
+    std::vector<std::array<std::uint32_t, 2>> startCrossings; ///< the crossed pairs it found there, sorted
+};
+
+/// Times a stage of the system into its own profile entry.
+class Stage {
+public:
+    Stage(const StepContext& ctx, const char* name) {
+        if (ctx.profiler) {
+            m_timer.emplace(*ctx.profiler, ctx.profiler->stageSlot(name, Phase::Fixed));
+        }
+    }
+
+private:
+    std::optional<ScopedTimer> m_timer;
+};
+
+/// A rotation by the vector a (angle |a| about a / |a|) applied to r (Rodrigues).
+Vec3 rotateBy(const Vec3& a, const Vec3& r) {
+    const double angle = length(a);
+    if (angle < 1e-300) {
+        return r;
+    }
+    const Vec3 k = a * (1.0 / angle);
+    const double c = std::cos(angle), s = std::sin(angle);
+    return r * c + cross(k, r) * s + k * (dot(k, r) * (1.0 - c));
+}
+
+/// Solves the symmetric 3x3 system I w = b (rows of I), regularised so that a line of masses (no inertia
+/// about its axis) still has an answer.
+Vec3 solve3(const double I[3][3], const Vec3& b) {
+    double m[3][3];
+    const double trace = I[0][0] + I[1][1] + I[2][2];
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            m[r][c] = I[r][c] + (r == c ? 1e-9 * trace + 1e-300 : 0.0);
+        }
+    }
+    const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                       m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                       m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) {
+        return {};
+    }
+    const double bb[3] = {b.x, b.y, b.z};
+    double out[3];
+    for (int col = 0; col < 3; ++col) {
+        double a[3][3];
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) {
+                a[r][c] = c == col ? bb[r] : m[r][c];
+            }
+        }
+        out[col] = (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                    a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])) /
+                   det;
+    }
+    return {out[0], out[1], out[2]};
+}
+
+class Contact {
+public:
+    Contact(ClothScratch& s, const StepContext& ctx) : m_s(s), m_ctx(ctx) {}
+
+    // ---- stencils -------------------------------------------------------------------------------------
+
+    /// Changes q of the stencil by dq in `field`, shared by inverse mass and weight. A mass resting on a
+    /// collider takes no share that would push it into the collider (it is of infinite mass that way, free
+    /// along the surface). False when the free points carry too small a share to move it: a free corner of
+    /// small weight beside held ones would be thrown by dq divided by its weight (one such push sent a
+    /// mass 3 m). Left to the zones.
+    bool apply(std::vector<Vec3>& field, const Stencil& st, const Vec3& dq) const {
+        double inv[4];
+        double m = 0.0;
+        const double size = length(dq);
+        for (int k = 0; k < 4; ++k) {
+            const std::uint32_t i = st.i[k];
+            inv[k] = m_s.w[i];
+            if (inv[k] > 0.0 && m_s.seated[i] && dot(dq, m_s.seat[i]) * st.w[k] < -0.1 * size * std::abs(st.w[k])) {
+                inv[k] = 0.0;
+            }
+            m += st.w[k] * st.w[k] * inv[k];
+        }
+        if (!(m > 0.0)) {
+            return false;
+        }
+        // how far the most moved point goes, per unit of dq
+        double amplification = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            amplification = std::max(amplification, std::abs(st.w[k]) * inv[k] / m);
+        }
+        if (amplification > kMaxAmplification) {
+            return false;
+        }
+        const Vec3 j = dq * (1.0 / m);
+        for (int k = 0; k < 4; ++k) {
+            field[st.i[k]] += j * (st.w[k] * inv[k]);
+            if (&field == &m_s.x && inv[k] > 0.0) {
+                m_s.moved[st.i[k]] = 1;
+            }
+        }
+        return true;
+    }
+
+    Vec3 sum(const std::vector<Vec3>& field, const Stencil& st) const {
+        Vec3 q;
+        for (int k = 0; k < 4; ++k) {
+            q += field[st.i[k]] * st.w[k];
+        }
+        return q;
+    }
+
+    /// The distance kept between two masses' surfaces: half of each one's thickness (each sheet is as
+    /// thick on either side of its mid-surface), so a cloth keeps its own thickness from itself.
+    double thickness(std::uint32_t a, std::uint32_t b) const {
+        return 0.5 * (mesh(a).net->thickness + mesh(b).net->thickness);
+    }
+    double friction(std::uint32_t a, std::uint32_t b) const {
+        return std::sqrt(mesh(a).net->friction * mesh(b).net->friction);
+    }
+    const Mesh& mesh(std::uint32_t vertex) const { return m_s.meshes[m_s.meshOf[vertex]]; }
+
+    // ---- refit and pairs ------------------------------------------------------------------------------
+
+    /// Boxes swept from the start of the step to now, inflated by the thickness; the tree refitted.
+    void refit() {
+        m_s.vertexBoxes.resize(m_s.x.size());
+        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+            Aabb b;
+            b.add(m_s.x0[i]);
+            b.add(m_s.x[i]);
+            b.inflate(mesh(i).net->thickness);
+            m_s.vertexBoxes[i] = b;
+        }
+        for (std::size_t t = 0; t < m_s.tris.size(); ++t) {
+            Aabb b = m_s.vertexBoxes[m_s.tris[t][0]];
+            b.add(m_s.vertexBoxes[m_s.tris[t][1]]);
+            b.add(m_s.vertexBoxes[m_s.tris[t][2]]);
+            m_s.boxes[t] = b;
+        }
+        if (m_s.tree.empty() || !m_s.tree.refit(m_s.boxes)) {
+            m_s.tree.build(m_s.boxes);
+        }
+    }
+
+    /// The candidate pairs of the rule in the header, each once, in index order.
+    void gather() {
+        m_s.vt.clear();
+        m_s.ee.clear();
+        m_s.pairs.clear();
+        m_s.tree.selfPairs(m_s.pairs);
+        for (const auto& [i, j] : m_s.pairs) {
+            addTrianglePair(i, j);
+        }
+        // in the tree's order (fixed by the tree, so the same every run): sorting them into index order cost
+        // a tenth of the pile demo's whole run, and the fail-safe no longer depends on the order to settle
+        m_s.xg = m_s.x;
+    }
+
+    /// The candidates hold while no mass has moved, since they were gathered, farther than the margin its
+    /// box was inflated by (less the distance the continuous tests look for).
+    /// (Both ends of each mass's motion over the step are checked, so a list stays good from step to step
+    /// while the cloth hardly moves: a resting pile gathers once.)
+    bool candidatesStale() const {
+        if (m_s.xg.size() != m_s.x.size()) {
+            return true;
+        }
+        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+            // boxes of two primitives a distance D apart overlap while D plus their drifts is at most the sum
+            // of their inflations: with each inflated by its thickness h and drifting at most h / 2, that
+            // covers the proximity (D up to the mean thickness) and the continuous tests (a twentieth of it).
+            // (A quarter of h gathered twice a step in the pile demo: the contacts the continuous passes
+            // stop move masses farther than that)
+            const double margin = 0.5 * mesh(i).net->thickness;
+            for (const Vec3& d : {m_s.x[i] - m_s.xg[i], m_s.x0[i] - m_s.xg[i]}) {
+                if (std::abs(d.x) > margin || std::abs(d.y) > margin || std::abs(d.z) > margin) {
+                    return true;
+                }
+            }
+        }
+        return false;
+    }
+
+    /// Refits and gathers again when the candidates no longer cover where the masses are.
+    void refreshCandidates() {
+        if (!candidatesStale()) {
+            return;
+        }
+        {
+            Stage stage(m_ctx, "cloth_collision.refit");
+            refit();
+        }
+        Stage stage(m_ctx, "cloth_collision.pairs");
+        gather();
+        m_s.testAll = true;
+    }
+
+    // ---- proximity ------------------------------------------------------------------------------------
+
+    /// One pass of proximity repulsion; the number of pairs pushed from well inside the thickness.
+    /// The first pass looks at every candidate and keeps those within twice the thickness; the later
+    /// passes look at those alone (a pair farther apart is not pushed within the thickness by one pass).
+    int proximity(bool first) {
+        int pushed = 0;
+        if (first) {
+            m_s.nearVt.clear();
+            m_s.nearEe.clear();
+        }
+        const std::size_t vtCount = first ? m_s.vt.size() : m_s.nearVt.size();
+        for (std::size_t k = 0; k < vtCount; ++k) {
+            const VertexTriangle& c = first ? m_s.vt[k] : m_s.vt[m_s.nearVt[k]];
+            if (c.restClose) {
+                continue;
+            }
+            const Triangle& tri = m_s.tris[c.t];
+            double b[3];
+            const double d = pointTriangleDistance(m_s.x[c.p], m_s.x[tri[0]], m_s.x[tri[1]], m_s.x[tri[2]], b);
+            const double h = thickness(c.p, tri[0]);
+            if (first && d < 2.0 * h) {
+                m_s.nearVt.push_back(std::uint32_t(k));
+            }
+            if (d >= h) {
+                continue;
+            }
+            const Stencil st{{c.p, tri[0], tri[1], tri[2]}, {1.0, -b[0], -b[1], -b[2]}};
+            Vec3 n = d > 1e-12 * h ? sum(m_s.x, st) * (1.0 / d) : triangleNormal(tri);
+            pushed += repel(st, n, d, h, friction(c.p, tri[0]));
+        }
+        const std::size_t eeCount = first ? m_s.ee.size() : m_s.nearEe.size();
+        for (std::size_t k = 0; k < eeCount; ++k) {
+            const EdgeEdge& c = first ? m_s.ee[k] : m_s.ee[m_s.nearEe[k]];
+            if (c.restClose) {
+                continue;
+            }
+            double u = 0.0, v = 0.0;
+            const double d = segmentDistance(m_s.x[c.a0], m_s.x[c.a1], m_s.x[c.b0], m_s.x[c.b1], u, v);
+            const double h = thickness(c.a0, c.b0);
+            if (first && d < 2.0 * h) {
+                m_s.nearEe.push_back(std::uint32_t(k));
+            }
+            if (d >= h) {
+                continue;
+            }
+            const Stencil st{{c.a0, c.a1, c.b0, c.b1}, {1.0 - u, u, -(1.0 - v), -v}};
+            Vec3 n = d > 1e-12 * h ? sum(m_s.x, st) * (1.0 / d) : edgeNormal(c.a0, c.a1, c.b0, c.b1);
+            pushed += repel(st, n, d, h, friction(c.a0, c.b0));
+        }
+        return pushed;
+    }
+
+    // ---- continuous -----------------------------------------------------------------------------------
+
+    /// Runs the continuous test on every candidate; with `respond`, stops each contact as it is found
+    /// (Gauss-Seidel), otherwise collects the contacts in m_s.hits. Returns the number found.
+    /// A candidate none of whose masses has moved since the last pass tested it is not tested again (its
+    /// motion over the step is the same): after the first pass of a step (or of a new list), a pass costs
+    /// in proportion to what the pass before it moved. The contacts the last pass found are tested again
+    /// whether or not they moved.
+    int continuous(bool respond) {
+        const bool all = m_s.testAll;
+        m_s.testAll = false;
+        m_s.movedBefore.swap(m_s.moved);
+        std::fill(m_s.moved.begin(), m_s.moved.end(), std::uint8_t{0});
+        for (const Constraint& c : m_s.hits) {
+            for (std::uint32_t i : c.s.i) {
+                m_s.movedBefore[i] = 1;
+            }
+        }
+        m_s.hits.clear();
+        const auto& mv = m_s.movedBefore;
+        int found = 0;
+        for (const VertexTriangle& c : m_s.vt) {
+            const Triangle& tri = m_s.tris[c.t];
+            if (all || mv[c.p] || mv[tri[0]] || mv[tri[1]] || mv[tri[2]]) {
+                found += test({c.p, tri[0], tri[1], tri[2]}, true, respond);
+            }
+        }
+        for (const EdgeEdge& c : m_s.ee) {
+            if (all || mv[c.a0] || mv[c.a1] || mv[c.b0] || mv[c.b1]) {
+                found += test({c.a0, c.a1, c.b0, c.b1}, false, respond);
+            }
+        }
+        return found;
+    }
+
+    /// The next continuous pass tests every candidate (the masses have all moved: a new step).
+    void testEverything() { m_s.testAll = true; }
+
+    /// Inelastic projection (Harmon et al. 2008) of the contacts in m_s.hits together with those of earlier
+    /// rounds: Gauss-Seidel over the constraints q . n >= gap until none is violated by more than a hundredth
+    /// of its gap, then the approach speed of each removed.
+    void project() {
+        m_s.constraints.insert(m_s.constraints.end(), m_s.hits.begin(), m_s.hits.end());
+        for (int it = 0; it < kProjectionIterations; ++it) {
+            double worst = 0.0;
+            for (const Constraint& c : m_s.constraints) {
+                const double violation = c.gap - dot(sum(m_s.x, c.s), c.n);
+                if (violation > 0.0 && apply(m_s.x, c.s, c.n * violation)) {
+                    worst = std::max(worst, violation / c.gap);
+                }
+            }
+            if (worst < 0.01) {
+                break;
+            }
+        }
+        for (const Constraint& c : m_s.constraints) {
+            const double vn = dot(sum(m_s.v, c.s), c.n);
+            if (vn < 0.0) {
+                apply(m_s.v, c.s, c.n * -vn);
+            }
+        }
+    }
+
+    /// One round of rigid impact zones (Provot 1997; Bridson et al. 2002): the masses of the contacts in
+    /// m_s.hits join zones (with those of earlier rounds), and every zone moves rigidly from where it began.
+    void zones() {
+        auto find = [&](std::uint32_t i) {
+            while (m_s.parent[i] != i) {
+                m_s.parent[i] = m_s.parent[m_s.parent[i]];
+                i = m_s.parent[i];
+            }
+            return i;
+        };
+        for (const Constraint& c : m_s.hits) {
+            for (int k = 0; k < 4; ++k) {
+                m_s.joined[c.s.i[k]] = 1;
+                const std::uint32_t a = find(c.s.i[0]), b = find(c.s.i[k]);
+                if (a != b) {
+                    m_s.parent[std::max(a, b)] = std::min(a, b);
+                }
+            }
+        }
+        // members grouped by zone (root), in index order
+        const std::uint32_t n = std::uint32_t(m_s.x.size());
+        m_s.members.clear();
+        for (std::uint32_t i = 0; i < n; ++i) {
+            if (m_s.joined[i]) {
+                m_s.members.push_back(i);
+            }
+        }
+        std::sort(m_s.members.begin(), m_s.members.end(), [&](std::uint32_t a, std::uint32_t b) {
+            return std::pair{find(a), a} < std::pair{find(b), b};
+        });
+        for (std::size_t first = 0; first < m_s.members.size();) {
+            std::size_t last = first;
+            while (last < m_s.members.size() && find(m_s.members[last]) == find(m_s.members[first])) {
+                ++last;
+            }
+            if (last - first > 1) {
+                moveRigidly(first, last);
+            }
+            first = last;
+        }
+    }
+
+    /// The masses of the contacts just found back where the step began, at rest (a frozen part of the cloth
+    /// crosses nothing it did not cross then; what now meets it is frozen in the next round).
+    void freeze() {
+        for (const Constraint& c : m_s.hits) {
+            for (std::uint32_t i : c.s.i) {
+                if (!mesh(i).net->pinned[i - mesh(i).vertexOffset]) {
+                    m_s.x[i] = m_s.x0[i];
+                    m_s.v[i] = Vec3{};
+                    m_s.moved[i] = 1;
+                }
+            }
+        }
+    }
+
+    /// Every free mass back where the step began, at rest: the state the step started from had no
+    /// crossing, so neither has this one.
+    void holdStill() {
+        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+            if (!mesh(i).net->pinned[i - mesh(i).vertexOffset]) {
+                m_s.x[i] = m_s.x0[i];
+                m_s.v[i] = Vec3{};
+                m_s.moved[i] = 1;
+            }
+        }
+    }
+
+private:
+    Vec3 triangleNormal(const Triangle& tri) const {
+        const Vec3 n = cross(m_s.x[tri[1]] - m_s.x[tri[0]], m_s.x[tri[2]] - m_s.x[tri[0]]);
+        const double len = length(n);
+        return len > 0.0 ? n * (1.0 / len) : Vec3{0.0, 1.0, 0.0};
+    }
+    Vec3 edgeNormal(std::uint32_t a0, std::uint32_t a1, std::uint32_t b0, std::uint32_t b1) const {
+        const Vec3 n = cross(m_s.x[a1] - m_s.x[a0], m_s.x[b1] - m_s.x[b0]);
+        const double len = length(n);
+        return len > 0.0 ? n * (1.0 / len) : Vec3{0.0, 1.0, 0.0};
+    }
+
+    /// Pushes a pair at distance d (normal n from the second primitive to the first) out to h, on the side
+    /// it began the step on; removes its approach speed and slows its sliding (Coulomb).
+    int repel(const Stencil& st, Vec3 n, double d, double h, double mu) {
+        double depth = h - d;
+        if (dot(sum(m_s.x0, st), n) < 0.0) {
+            n = -n; // it began on the other side: back across, then out
+            depth = h + d;
+        }
+        if (!apply(m_s.x, st, n * depth)) {
+            return 0;
+        }
+        const Vec3 vr = sum(m_s.v, st);
+        const double vn = dot(vr, n);
+        if (vn < 0.0) {
+            Vec3 dv = n * -vn;
+            const Vec3 vt = vr - n * vn;
+            const double speed = length(vt);
+            if (speed > 0.0) {
+                dv -= vt * (std::min(speed, mu * -vn) / speed);
+            }
+            apply(m_s.v, st, dv);
+        }
+        return d < kSettled * h ? 1 : 0;
+    }
+
+    /// The continuous test of one candidate over the step; 1 if it found a contact.
+    int test(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle, bool respond) {
+        const double h = thickness(idx[0], idx[2]);
+        const double reach = kDetectFraction * h;
+        Vec3 s[4], e[4];
+        Aabb a, b;
+        for (int k = 0; k < 4; ++k) {
+            s[k] = m_s.x0[idx[k]];
+            e[k] = m_s.x[idx[k]];
+            Aabb& side = (vertexTriangle ? k == 0 : k < 2) ? a : b;
+            side.add(s[k]);
+            side.add(e[k]);
+        }
+        a.inflate(reach);
+        if (!a.overlaps(b)) {
+            return 0;
+        }
+        // the distance of the pair moves no faster than its points move relative to each other: with M
+        // the largest such motion over the step, it is at least max(d0 - M t, d1 - M (1 - t)) at time t,
+        // so never below (d0 + d1 - M) / 2. Most candidates (resting layers, neighbours in a sheet) end
+        // here, before the inclusion search
+        {
+            double motion = 0.0;
+            const Vec3 base = e[0] - s[0];
+            for (int k = 1; k < 4; ++k) {
+                motion = std::max(motion, length((e[k] - s[k]) - base));
+            }
+            if (!vertexTriangle) {
+                // two edges: the first edge's own stretch, plus the second edge's motion relative to it
+                double second = 0.0;
+                for (int k = 2; k < 4; ++k) {
+                    second = std::max(second, length((e[k] - s[k]) - base));
+                }
+                motion = length((e[1] - s[1]) - base) + second;
+            }
+            const double d0 = distance(s, vertexTriangle);
+            if (d0 - motion > reach) {
+                return 0;
+            }
+            if (0.5 * (d0 + distance(e, vertexTriangle) - motion) > reach) {
+                return 0;
+            }
+        }
+        const CcdResult r = vertexTriangle ? vertexTriangleCcd(s, e, reach) : edgeEdgeCcd(s, e, reach);
+        if (!r.hit) {
+            return 0;
+        }
+        // the stencil where they touch: the closest points at the time of contact
+        Vec3 xt[4];
+        for (int k = 0; k < 4; ++k) {
+            xt[k] = s[k] + (e[k] - s[k]) * r.toi;
+        }
+        Stencil st{{idx[0], idx[1], idx[2], idx[3]}, {}};
+        if (vertexTriangle) {
+            double bw[3];
+            pointTriangleDistance(xt[0], xt[1], xt[2], xt[3], bw);
+            st.w[0] = 1.0;
+            st.w[1] = -bw[0];
+            st.w[2] = -bw[1];
+            st.w[3] = -bw[2];
+        } else {
+            double u = 0.0, v = 0.0;
+            segmentDistance(xt[0], xt[1], xt[2], xt[3], u, v);
+            st.w[0] = 1.0 - u;
+            st.w[1] = u;
+            st.w[2] = -(1.0 - v);
+            st.w[3] = -v;
+        }
+        Vec3 n;
+        double gap;
+        contactNormal(st, r.toi, vertexTriangle, n, gap);
+        const double end = dot(sum(m_s.x, st), n);
+        if (end >= gap - 1e-9 * h && !r.capped) {
+            return 0; // it came close within the step, but ends apart on its own side
+        }
+        if (!respond) {
+            m_s.hits.push_back({st, n, gap});
+            return 1;
+        }
+        // stop it: the end separation back to the gap, the approach speed gone
+        if (!apply(m_s.x, st, n * (gap - end))) {
+            m_s.hits.push_back({st, n, gap}); // nothing here can move it: for the zones
+            return 1;
+        }
+        const double vn = dot(sum(m_s.v, st), n);
+        if (vn < 0.0) {
+            apply(m_s.v, st, n * -vn);
+        }
+        return 1;
+    }
+
+    static double distance(const Vec3 x[4], bool vertexTriangle) {
+        if (vertexTriangle) {
+            double b[3];
+            return pointTriangleDistance(x[0], x[1], x[2], x[3], b);
+        }
+        double u = 0.0, v = 0.0;
+        return segmentDistance(x[0], x[1], x[2], x[3], u, v);
+    }
+
+    /// The direction a contact must keep (from the second primitive to the first where they met, at time
+    /// toi of the step) and its gap.
+    void contactNormal(const Stencil& st, double toi, bool vertexTriangle, Vec3& n, double& gap) const {
+        const double h = thickness(st.i[0], st.i[2]);
+        gap = kGapFraction * h;
+        Vec3 q;
+        for (int k = 0; k < 4; ++k) {
+            q += (m_s.x0[st.i[k]] + (m_s.x[st.i[k]] - m_s.x0[st.i[k]]) * toi) * st.w[k];
+        }
+        const double d = length(q);
+        if (d > 1e-6 * h) {
+            n = q * (1.0 / d);
+            return;
+        }
+        // they touch: the surfaces' own normal, turned towards the side they began on
+        n = vertexTriangle ? triangleNormal({st.i[1], st.i[2], st.i[3]}) : edgeNormal(st.i[0], st.i[1], st.i[2], st.i[3]);
+        const Vec3 q0 = sum(m_s.x0, st);
+        if (dot(q0, n) < 0.0) {
+            n = -n;
+        }
+    }
+
+    /// Moves the zone m_s.members[first, last) rigidly from where it began (Provot 1997), keeping the linear
+    /// and angular momentum of its members' motion over the step; a zone with a member of infinite mass
+    /// stays where it began.
+    void moveRigidly(std::size_t first, std::size_t last) {
+        const double dt = m_ctx.dt;
+        bool anchored = false;
+        double mass = 0.0;
+        Vec3 centre, momentum;
+        for (std::size_t k = first; k < last; ++k) {
+            const std::uint32_t i = m_s.members[k];
+            if (m_s.w[i] <= 0.0 || m_s.seated[i]) {
+                anchored = true;
+                continue;
+            }
+            const double m = 1.0 / m_s.w[i];
+            mass += m;
+            centre += m_s.x0[i] * m;
+            momentum += (m_s.xc[i] - m_s.x0[i]) * (m / dt);
+        }
+        if (anchored || mass <= 0.0) {
+            for (std::size_t k = first; k < last; ++k) {
+                const std::uint32_t i = m_s.members[k];
+                const Mesh& me = mesh(i);
+                if (!me.net->pinned[i - me.vertexOffset]) {
+                    m_s.x[i] = m_s.x0[i];
+                    m_s.v[i] = Vec3{};
+                    m_s.moved[i] = 1;
+                }
+            }
+            return;
+        }
+        centre = centre * (1.0 / mass);
+        const Vec3 vc = momentum * (1.0 / mass);
+        double inertia[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+        Vec3 angular;
+        for (std::size_t k = first; k < last; ++k) {
+            const std::uint32_t i = m_s.members[k];
+            const double m = 1.0 / m_s.w[i];
+            const Vec3 r = m_s.x0[i] - centre;
+            const Vec3 vi = (m_s.xc[i] - m_s.x0[i]) * (1.0 / dt) - vc;
+            angular += cross(r, vi) * m;
+            const double rr[3] = {r.x, r.y, r.z};
+            const double r2 = dot(r, r);
+            for (int a = 0; a < 3; ++a) {
+                for (int b = 0; b < 3; ++b) {
+                    inertia[a][b] += m * ((a == b ? r2 : 0.0) - rr[a] * rr[b]);
+                }
+            }
+        }
+        const Vec3 omega = solve3(inertia, angular);
+        for (std::size_t k = first; k < last; ++k) {
+            const std::uint32_t i = m_s.members[k];
+            const Vec3 r = rotateBy(omega * dt, m_s.x0[i] - centre);
+            m_s.x[i] = centre + vc * dt + r;
+            m_s.moved[i] = 1;
+            m_s.v[i] = vc + cross(omega, r);
+        }
+    }
+
+    void addTrianglePair(std::uint32_t ta, std::uint32_t tb) {
+        addVertexTriangles(ta, tb);
+        addVertexTriangles(tb, ta);
+        const Triangle& a = m_s.tris[ta];
+        const Triangle& b = m_s.tris[tb];
+        for (int i = 0; i < 3; ++i) {
+            if (!(m_s.edgeOwned[ta] & (1u << i))) {
+                continue;
+            }
+            const std::uint32_t a0 = std::min(a[i], a[(i + 1) % 3]), a1 = std::max(a[i], a[(i + 1) % 3]);
+            for (int j = 0; j < 3; ++j) {
+                if (!(m_s.edgeOwned[tb] & (1u << j))) {
+                    continue;
+                }
+                const std::uint32_t b0 = std::min(b[j], b[(j + 1) % 3]), b1 = std::max(b[j], b[(j + 1) % 3]);
+                if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1 || !sweptOverlap({a0, a1}, {b0, b1})) {
+                    continue;
+                }
+                // each edge pair once: ordered by the lower edge first
+                EdgeEdge pair = std::tie(a0, a1) < std::tie(b0, b1) ? EdgeEdge{a0, a1, b0, b1}
+                                                                    : EdgeEdge{b0, b1, a0, a1};
+                pair.restClose = restClose(pair.a0, pair.a1, pair.b0, pair.b1);
+                m_s.ee.push_back(pair);
+            }
+        }
+    }
+
+    /// The vertices of triangle ta (those it answers for) against triangle tb.
+    void addVertexTriangles(std::uint32_t ta, std::uint32_t tb) {
+        const Triangle& b = m_s.tris[tb];
+        for (std::uint32_t p : m_s.tris[ta]) {
+            if (m_s.vertexOwner[p] != ta || p == b[0] || p == b[1] || p == b[2]) {
+                continue;
+            }
+            if (m_s.vertexBoxes[p].overlaps(m_s.boxes[tb])) {
+                m_s.vt.push_back({p, tb, restClose(p, tb)});
+            }
+        }
+    }
+
+    /// Do the edges' swept boxes (inflated as every box is) overlap?
+    bool sweptOverlap(std::array<std::uint32_t, 2> ea, std::array<std::uint32_t, 2> eb) const {
+        Aabb a = m_s.vertexBoxes[ea[0]], b = m_s.vertexBoxes[eb[0]];
+        a.add(m_s.vertexBoxes[ea[1]]);
+        b.add(m_s.vertexBoxes[eb[1]]);
+        return a.overlaps(b);
+    }
+
+    /// Within one cloth, a pair closer than the thickness in the rest state is not repelled (the pairs
+    /// listed when the layout was made; none in a sheet whose thickness is below 0.7 of its spacing).
+    bool restClose(std::uint32_t p, std::uint32_t t) const {
+        return !m_s.restVertexTriangle.empty() &&
+               std::binary_search(m_s.restVertexTriangle.begin(), m_s.restVertexTriangle.end(), VertexTriangle{p, t});
+    }
+    bool restClose(std::uint32_t a0, std::uint32_t a1, std::uint32_t b0, std::uint32_t b1) const {
+        return !m_s.restEdgeEdge.empty() && std::binary_search(m_s.restEdgeEdge.begin(), m_s.restEdgeEdge.end(),
+                                                               EdgeEdge{a0, a1, b0, b1});
+    }
+
+    ClothScratch& m_s;
+    const StepContext& m_ctx;
+};
+
+/// The pairs the rule leaves out: within one cloth, closer than its thickness in the rest state. Found once
+/// per layout by a hierarchy over the rest positions.
+void listRestPairs(ClothScratch& s) {
+    s.restVertexTriangle.clear();
+    s.restEdgeEdge.clear();
+    std::vector<Vec3> rest(s.meshOf.size());
+    for (const Mesh& m : s.meshes) {
+        std::copy(m.cc->rest.begin(), m.cc->rest.end(), rest.begin() + m.vertexOffset);
+    }
+    std::vector<Aabb> boxes(s.tris.size());
+    for (std::size_t t = 0; t < s.tris.size(); ++t) {
+        for (std::uint32_t k : s.tris[t]) {
+            boxes[t].add(rest[k]);
+        }
+        boxes[t].inflate(s.meshes[s.meshOf[s.tris[t][0]]].net->thickness);
+    }
+    Bvh tree;
+    tree.build(boxes);
+    std::vector<std::array<std::uint32_t, 2>> pairs;
+    tree.selfPairs(pairs);
+    for (const auto& [i, j] : pairs) {
+        if (s.meshOf[s.tris[i][0]] != s.meshOf[s.tris[j][0]]) {
+            continue;
+        }
+        const double h = s.meshes[s.meshOf[s.tris[i][0]]].net->thickness;
+        for (const auto& [ta, tb] : {std::pair{i, j}, std::pair{j, i}}) {
+            const Triangle& a = s.tris[ta];
+            const Triangle& b = s.tris[tb];
+            for (std::uint32_t p : a) {
+                double w[3];
+                if (p != b[0] && p != b[1] && p != b[2] &&
+                    pointTriangleDistance(rest[p], rest[b[0]], rest[b[1]], rest[b[2]], w) < h) {
+                    s.restVertexTriangle.push_back({p, tb});
+                }
+            }
+        }
+        const Triangle& a = s.tris[i];
+        const Triangle& b = s.tris[j];
+        for (int x = 0; x < 3; ++x) {
+            const std::uint32_t a0 = std::min(a[x], a[(x + 1) % 3]), a1 = std::max(a[x], a[(x + 1) % 3]);
+            for (int y = 0; y < 3; ++y) {
+                const std::uint32_t b0 = std::min(b[y], b[(y + 1) % 3]), b1 = std::max(b[y], b[(y + 1) % 3]);
+                double u = 0.0, v = 0.0;
+                if (a0 != b0 && a0 != b1 && a1 != b0 && a1 != b1 &&
+                    segmentDistance(rest[a0], rest[a1], rest[b0], rest[b1], u, v) < h) {
+                    s.restEdgeEdge.push_back(std::tie(a0, a1) < std::tie(b0, b1) ? EdgeEdge{a0, a1, b0, b1}
+                                                                                 : EdgeEdge{b0, b1, a0, a1});
+                }
+            }
+        }
+    }
+    for (auto* list : {&s.restVertexTriangle}) {
+        std::sort(list->begin(), list->end());
+        list->erase(std::unique(list->begin(), list->end(), [](auto& x, auto& y) { return !(x < y) && !(y < x); }),
+                    list->end());
+    }
+    std::sort(s.restEdgeEdge.begin(), s.restEdgeEdge.end());
+    s.restEdgeEdge.erase(std::unique(s.restEdgeEdge.begin(), s.restEdgeEdge.end(),
+                                     [](auto& x, auto& y) { return !(x < y) && !(y < x); }),
+                         s.restEdgeEdge.end());
+}
+
+/// The self-colliding networks of this step, and the flat arrays laid out for them.
+bool prepare(World& world, ClothScratch& s) {
+    s.meshes.clear();
+    world.view<const Name, SpringNetwork, ClothCollision>().each(
+        [&](Entity e, const Name& name, SpringNetwork& net, ClothCollision& cc) {
+            if (!net.selfCollision || net.frozen || net.triangles.empty() || cc.previous.size() != net.x.size()) {
+                return;
+            }
+            s.meshes.push_back({e, &net, &cc, &name, 0, 0});
+        });
+    if (s.meshes.empty()) {
+        return false;
+    }
+    // the layout: rebuilt only when the set of meshes changes
+    std::vector<Entity> layout;
+    std::vector<std::uint32_t> sizes;
+    std::uint32_t vertices = 0, triangles = 0;
+    for (Mesh& m : s.meshes) {
+        m.vertexOffset = vertices;
+        m.triangleOffset = triangles;
+        vertices += std::uint32_t(m.net->x.size());
+        triangles += std::uint32_t(m.net->triangles.size());
+        layout.push_back(m.entity);
+        sizes.push_back(std::uint32_t(m.net->x.size()));
+        sizes.push_back(std::uint32_t(m.net->triangles.size()));
+    }
+    if (layout != s.layout || sizes != s.sizes) {
+        s.layout = layout;
+        s.sizes = sizes;
+        s.tris.clear();
+        s.meshOf.assign(vertices, 0);
+        for (std::uint32_t mi = 0; mi < s.meshes.size(); ++mi) {
+            const Mesh& m = s.meshes[mi];
+            for (std::uint32_t i = 0; i < m.net->x.size(); ++i) {
+                s.meshOf[m.vertexOffset + i] = mi;
+            }
+            for (const Triangle& t : m.net->triangles) {
+                s.tris.push_back({t[0] + m.vertexOffset, t[1] + m.vertexOffset, t[2] + m.vertexOffset});
+            }
+        }
+        // the first triangle of each vertex and of each edge answers for it in the pair queries
+        s.vertexOwner.assign(vertices, ~0u);
+        s.edgeOwned.assign(triangles, 0);
+        std::vector<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, int>> edges;
+        for (std::uint32_t t = 0; t < triangles; ++t) {
+            for (int k = 0; k < 3; ++k) {
+                s.vertexOwner[s.tris[t][k]] = std::min(s.vertexOwner[s.tris[t][k]], t);
+                const std::uint32_t u = s.tris[t][k], v = s.tris[t][(k + 1) % 3];
+                edges.emplace_back(std::min(u, v), std::max(u, v), t, k);
+            }
+        }
+        std::sort(edges.begin(), edges.end());
+        for (std::size_t e = 0; e < edges.size(); ++e) {
+            const auto& [u, v, t, k] = edges[e];
+            if (e == 0 || std::get<0>(edges[e - 1]) != u || std::get<1>(edges[e - 1]) != v) {
+                s.edgeOwned[t] = std::uint8_t(s.edgeOwned[t] | (1u << k));
+            }
+        }
+        s.boxes.assign(triangles, Aabb{});
+        s.tree = Bvh{};
+        s.xg.clear(); // the candidates were of another layout
+        s.startChecked = false;
+        s.startCrossings.clear();
+        listRestPairs(s);
+    }
+    s.x0.resize(vertices);
+    s.x.resize(vertices);
+    s.v.resize(vertices);
+    s.w.resize(vertices);
+    for (const Mesh& m : s.meshes) {
+        std::copy(m.cc->previous.begin(), m.cc->previous.end(), s.x0.begin() + m.vertexOffset);
+        std::copy(m.net->x.begin(), m.net->x.end(), s.x.begin() + m.vertexOffset);
+        std::copy(m.net->v.begin(), m.net->v.end(), s.v.begin() + m.vertexOffset);
+        for (std::size_t i = 0; i < m.net->x.size(); ++i) {
+            s.w[m.vertexOffset + i] = m.net->pinned[i] ? 0.0 : m.net->invMass[i];
+        }
+    }
+    s.xc = s.x;
+    s.moved.assign(vertices, 0);
+    s.movedBefore.assign(vertices, 0);
+    s.seat.assign(vertices, Vec3{});
+    s.seated.assign(vertices, 0);
+    s.parent.resize(vertices);
+    for (std::uint32_t i = 0; i < vertices; ++i) {
+        s.parent[i] = i;
+    }
+    s.joined.assign(vertices, 0);
+    s.constraints.clear();
+    return true;
+}
+
+/// Masses resting on a collider (within kRestingFraction thicknesses of its surface) are seated on it: the
+/// cloth's own contacts cannot push them into it. With pushOut, a mass inside a collider is put back out
+/// to the thickness, its velocity into the surface removed, and seated. Returns how many were put back.
+int holdOnColliders(World& world, ClothScratch& s, bool pushOut) {
+    Pool<RigidBody>* bodies = world.findPool<RigidBody>();
+    if (!bodies || bodies->size() == 0) {
+        return 0;
+    }
+    int moved = 0;
+    for (const Mesh& m : s.meshes) {
+        const double h = m.net->thickness;
+        for (std::uint32_t i = 0; i < m.net->x.size(); ++i) {
+            const std::uint32_t g = m.vertexOffset + i;
+            if (s.w[g] <= 0.0) {
+                continue;
+            }
+            for (const RigidBody& body : bodies->values()) {
+                Vec3 n;
+                const double d = signedDistance(body, s.x[g], n);
+                if (pushOut && d < 0.0) {
+                    s.x[g] += n * (h - d);
+                    s.moved[g] = 1;
+                    const double vn = dot(s.v[g], n);
+                    if (vn < 0.0) {
+                        s.v[g] -= n * vn;
+                    }
+                    ++moved;
+                }
+                if (d < kRestingFraction * h) {
+                    s.seat[g] = n;
+                    s.seated[g] = 1;
+                }
+            }
+        }
+    }
+    return moved;
+}
+
+/// The exact audit: intersecting pairs of triangles that share no vertex. At the first step of a layout it
+/// notes the crossings the cloths began with (a scene that starts tangled: they are left as they are);
+/// afterwards, with `fail`, the first crossing that was not there at the start fails the run.
+std::size_t audit(World& world, const StepContext& ctx, ClothScratch& s, bool fail) {
+    for (std::size_t t = 0; t < s.tris.size(); ++t) {
+        Aabb b;
+        for (std::uint32_t k : s.tris[t]) {
+            b.add(s.x[k]);
+        }
+        s.boxes[t] = b;
+    }
+    if (s.tree.empty() || !s.tree.refit(s.boxes)) {
+        s.tree.build(s.boxes);
+    }
+    s.pairs.clear();
+    s.tree.selfPairs(s.pairs);
+    std::sort(s.pairs.begin(), s.pairs.end());
+    const bool first = !s.startChecked;
+    std::size_t crossings = 0;
+    for (const auto& [i, j] : s.pairs) {
+        const Triangle& a = s.tris[i];
+        const Triangle& b = s.tris[j];
+        bool share = false;
+        for (std::uint32_t k : a) {
+            share = share || k == b[0] || k == b[1] || k == b[2];
+        }
+        if (share || !trianglesIntersect(s.x[a[0]], s.x[a[1]], s.x[a[2]], s.x[b[0]], s.x[b[1]], s.x[b[2]])) {
+            continue;
+        }
+        ++crossings;
+        if (first) {
+            s.startCrossings.push_back({i, j});
+            continue;
+        }
+        if (!fail || std::binary_search(s.startCrossings.begin(), s.startCrossings.end(), std::array{i, j})) {
+            continue;
+        }
+        const Mesh& ma = s.meshes[s.meshOf[a[0]]];
+        const Mesh& mb = s.meshes[s.meshOf[b[0]]];
+        if (ma.cc->crossingsReported++ > 0) {
+            continue;
+        }
+        const std::uint32_t la = i - ma.triangleOffset, lb = j - mb.triangleOffset;
+        std::string what = "entity '" + ma.name->value + "' passed through " +
+                           (&ma == &mb ? std::string("itself") : "entity '" + mb.name->value + "'") + " at frame " +
+                           std::to_string(ctx.frame) + " (t = " + std::to_string(ctx.time) + " s): triangle " +
+                           std::to_string(la) + " crosses triangle " + std::to_string(lb) +
+                           " (--check-contact). Remedy: a smaller dt, or a larger thickness";
+        world.resource<RunReport>().failures.push_back(std::move(what));
+    }
+    if (first) {
+        s.startChecked = true;
+        // one note per cloth that begins crossed
+        for (const Mesh& m : s.meshes) {
+            std::size_t count = 0;
+            std::array<std::uint32_t, 2> example{};
+            for (const auto& [i, j] : s.startCrossings) {
+                if (s.meshOf[s.tris[i][0]] == s.meshOf[m.vertexOffset]) {
+                    example = count++ == 0 ? std::array{i - m.triangleOffset, j} : example;
+                }
+            }
+            if (count > 0) {
+                const Mesh& other = s.meshes[s.meshOf[s.tris[example[1]][0]]];
+                world.resource<RunReport>().notes.push_back(
+                    "entity '" + m.name->value + "' starts with " + std::to_string(count) +
+                    " pairs of triangles crossed (its triangle " + std::to_string(example[0]) + " through triangle " +
+                    std::to_string(example[1] - other.triangleOffset) +
+                    (&other == &m ? std::string(" of its own") : " of '" + other.name->value + "'") +
+                    "): contact keeps anything new from crossing but does not untangle what began crossed; "
+                    "move the cloths apart in the scene");
+            }
+        }
+    }
+    return crossings;
+}
+
+} // namespace
+
 double segmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t) {
+    // Ericson, Real-Time Collision Detection, 5.1.9
     const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
     const double a = dot(d1, d1), e = dot(d2, d2), f = dot(d2, r);
     const double eps = 1e-24;
@@ -116,435 +1063,6 @@ double segmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec
     }
     return length((p0 + d1 * s) - (q0 + d2 * t));
 }
-
-/// The roots in [0, 1] of c0 + c1 t + c2 t^2 + c3 t^3, ascending (bisection on monotone pieces).
-int cubicRoots(const double c[4], double roots[3]) {
-    auto f = [&](double t) { return ((c[3] * t + c[2]) * t + c[1]) * t + c[0]; };
-    const double scale = std::abs(c[0]) + std::abs(c[1]) + std::abs(c[2]) + std::abs(c[3]);
-    if (scale == 0.0) {
-        roots[0] = 0.0; // coplanar throughout: the proximity test at t = 0 decides
-        return 1;
-    }
-    // split [0, 1] where the derivative c1 + 2 c2 t + 3 c3 t^2 vanishes
-    double cuts[4] = {0.0, 1.0, 1.0, 1.0};
-    int n = 1;
-    const double a = 3.0 * c[3], b = 2.0 * c[2], cc = c[1];
-    if (std::abs(a) > 1e-30 * scale) {
-        const double disc = b * b - 4.0 * a * cc;
-        if (disc >= 0.0) {
-            const double sq = std::sqrt(disc);
-            for (double r : {(-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)}) {
-                if (r > 0.0 && r < 1.0) {
-                    cuts[n++] = r;
-                }
-            }
-        }
-    } else if (std::abs(b) > 1e-30 * scale) {
-        const double r = -cc / b;
-        if (r > 0.0 && r < 1.0) {
-            cuts[n++] = r;
-        }
-    }
-    cuts[n++] = 1.0;
-    // at most four: sorted by hand (std::sort here trips g++'s -Warray-bounds at -O2)
-    for (int i = 1; i < n; ++i) {
-        for (int j = i; j > 0 && cuts[j] < cuts[j - 1]; --j) {
-            std::swap(cuts[j], cuts[j - 1]);
-        }
-    }
-    int found = 0;
-    for (int k = 0; k + 1 < n && found < 3; ++k) {
-        double lo = cuts[k], hi = cuts[k + 1];
-        double flo = f(lo), fhi = f(hi);
-        if (flo == 0.0) {
-            if (found == 0 || roots[found - 1] != lo) {
-                roots[found++] = lo;
-            }
-            continue;
-        }
-        if ((flo < 0.0) == (fhi < 0.0)) {
-            if (fhi == 0.0 && found < 3) {
-                roots[found++] = hi;
-            }
-            continue;
-        }
-        for (int it = 0; it < 50; ++it) {
-            const double mid = 0.5 * (lo + hi), fm = f(mid);
-            if ((fm < 0.0) == (flo < 0.0)) {
-                lo = mid;
-                flo = fm;
-            } else {
-                hi = mid;
-            }
-        }
-        roots[found++] = 0.5 * (lo + hi);
-    }
-    return found;
-}
-
-/// The coplanarity cubic of four moving points (x, displacement d over the step): (x1 - x0) . ((x2 - x0)
-/// x (x3 - x0)) at time t in [0, 1].
-void coplanarity(const Vec3 x[4], const Vec3 d[4], double c[4]) {
-    const Vec3 A = x[1] - x[0], B = x[2] - x[0], C = x[3] - x[0];
-    const Vec3 dA = d[1] - d[0], dB = d[2] - d[0], dC = d[3] - d[0];
-    const Vec3 ab = cross(A, B), ab1 = cross(A, dB) + cross(dA, B), ab2 = cross(dA, dB);
-    c[0] = dot(C, ab);
-    c[1] = dot(dC, ab) + dot(C, ab1);
-    c[2] = dot(dC, ab1) + dot(C, ab2);
-    c[3] = dot(dC, ab2);
-}
-
-class Solver {
-public:
-    /// The pairs go into scratch kept from step to step (no allocation a step once it has grown).
-    Solver(std::vector<Mesh>& meshes, std::vector<std::array<std::uint32_t, 2>>& pairs,
-           std::vector<VertexTriangle>& vt, std::vector<EdgeEdge>& ee)
-        : m_meshes(meshes), m_pairs(pairs), m_vt(vt), m_ee(ee) {
-        m_vt.clear();
-        m_ee.clear();
-    }
-
-    void gather() {
-        for (std::uint32_t m = 0; m < m_meshes.size(); ++m) {
-            m_pairs.clear();
-            m_meshes[m].cc->tree.selfPairs(m_pairs);
-            // triangles that share a corner are not skipped: their other vertices and edges may still
-            // be a pair that only they report (the spring test leaves out what they hold in common)
-            for (const auto& [i, j] : m_pairs) {
-                addTrianglePair(m, i, m, j);
-            }
-            for (std::uint32_t o = m + 1; o < m_meshes.size(); ++o) {
-                m_pairs.clear();
-                m_meshes[m].cc->tree.pairsWith(m_meshes[o].cc->tree, m_pairs);
-                for (const auto& [i, j] : m_pairs) {
-                    addTrianglePair(m, i, o, j);
-                }
-            }
-        }
-        // the passes go through the pairs one after another, each seeing the last one's corrections, so
-        // their order matters: in index order (grouped by point, then by edge) they settle where the
-        // hierarchy's order left the pile demo with 14 crossed pairs of triangles
-        std::sort(m_vt.begin(), m_vt.end());
-        std::sort(m_ee.begin(), m_ee.end());
-    }
-
-    /// One pass of proximity repulsion; the number of pairs pushed apart.
-    int proximity() {
-        int pushed = 0;
-        for (const VertexTriangle& c : m_vt) {
-            Stencil s;
-            Vec3 n;
-            const double d = vtEnd(c, s, n);
-            if (d < thickness(c.pm, c.tm)) {
-                // pushed to the side it started on: back across the triangle if it went through
-                const double depth = orient(s, n) ? thickness(c.pm, c.tm) + d : thickness(c.pm, c.tm) - d;
-                respond(s, n, depth, friction(c.pm, c.tm));
-                pushed += d < kSettled * thickness(c.pm, c.tm);
-            }
-        }
-        for (const EdgeEdge& c : m_ee) {
-            Stencil s;
-            Vec3 n;
-            const double d = eeEnd(c, s, n);
-            if (d < thickness(c.am, c.bm)) {
-                const double depth = orient(s, n) ? thickness(c.am, c.bm) + d : thickness(c.am, c.bm) - d;
-                respond(s, n, depth, friction(c.am, c.bm));
-                pushed += d < kSettled * thickness(c.am, c.bm);
-            }
-        }
-        return pushed;
-    }
-
-    /// One pass of continuous tests; the number of crossings stopped.
-    int continuous() {
-        int stopped = 0;
-        for (const VertexTriangle& c : m_vt) {
-            const SpringNetwork& p = *m_meshes[c.pm].net;
-            const SpringNetwork& t = *m_meshes[c.tm].net;
-            const auto& tri = t.triangles[c.t];
-            SpringNetwork* nets[4] = {m_meshes[c.pm].net, m_meshes[c.tm].net, m_meshes[c.tm].net, m_meshes[c.tm].net};
-            const std::uint32_t idx[4] = {c.p, tri[0], tri[1], tri[2]};
-            stopped += crossing(nets, idx, true, thickness(c.pm, c.tm));
-            (void)p;
-        }
-        for (const EdgeEdge& c : m_ee) {
-            SpringNetwork* nets[4] = {m_meshes[c.am].net, m_meshes[c.am].net, m_meshes[c.bm].net, m_meshes[c.bm].net};
-            const std::uint32_t idx[4] = {c.a0, c.a1, c.b0, c.b1};
-            stopped += crossing(nets, idx, false, thickness(c.am, c.bm));
-        }
-        return stopped;
-    }
-
-    std::size_t vtCount() const { return m_vt.size(); }
-    std::size_t eeCount() const { return m_ee.size(); }
-
-private:
-    /// Masses i and j of one mesh are the same or corners of one triangle: their own springs keep them
-    /// apart. (Any spring would leave out pairs two cells apart, which a tight fold brings together.)
-    bool near(std::uint32_t m, std::uint32_t i, std::uint32_t j) const {
-        if (i == j) {
-            return true;
-        }
-        const ClothCollision& cc = *m_meshes[m].cc;
-        const auto& list = cc.linked[i];
-        return std::binary_search(list.begin(), list.end(), j);
-    }
-
-    /// Does the swept, inflated box of these masses overlap the box?
-    bool sweptOverlaps(std::uint32_t m, std::initializer_list<std::uint32_t> masses, const Aabb& box) const {
-        const Mesh& mesh = m_meshes[m];
-        Aabb b;
-        for (std::uint32_t i : masses) {
-            b.add(mesh.net->x[i]);
-            b.add(mesh.cc->previous[i]);
-        }
-        b.inflate(mesh.net->thickness);
-        return b.overlaps(box);
-    }
-
-    /// The vertex-triangle and edge-edge pairs of two triangles, each pair once over the whole query: a
-    /// vertex is taken only from the first triangle that holds it, an edge only from the first that has it
-    /// (their boxes hold the vertex's and the edge's, so the query reports those triangles' pairs too).
-    void addTrianglePair(std::uint32_t ma, std::uint32_t ta, std::uint32_t mb, std::uint32_t tb) {
-        const Triangle& a = m_meshes[ma].net->triangles[ta];
-        const Triangle& b = m_meshes[mb].net->triangles[tb];
-        const ClothCollision& ca = *m_meshes[ma].cc;
-        const ClothCollision& cb = *m_meshes[mb].cc;
-        const bool same = ma == mb;
-        // within one cloth, a mass that shares a triangle with a corner of the other (or an edge whose end
-        // does with an end of the other edge) is its neighbour on the surface: left to the springs
-        for (std::uint32_t p : a) {
-            if (ca.vertexOwner[p] == ta && !(same && (near(ma, p, b[0]) || near(ma, p, b[1]) || near(ma, p, b[2]))) &&
-                sweptOverlaps(ma, {p}, cb.boxes[tb])) {
-                m_vt.push_back({ma, p, mb, tb});
-            }
-        }
-        for (std::uint32_t p : b) {
-            if (cb.vertexOwner[p] == tb && !(same && (near(ma, p, a[0]) || near(ma, p, a[1]) || near(ma, p, a[2]))) &&
-                sweptOverlaps(mb, {p}, ca.boxes[ta])) {
-                m_vt.push_back({mb, p, ma, ta});
-            }
-        }
-        for (int i = 0; i < 3; ++i) {
-            if (!(ca.edgeOwned[ta] & (1u << i))) {
-                continue;
-            }
-            const std::uint32_t a0 = std::min(a[i], a[(i + 1) % 3]), a1 = std::max(a[i], a[(i + 1) % 3]);
-            Aabb edgeA;
-            for (std::uint32_t k : {a0, a1}) {
-                edgeA.add(m_meshes[ma].net->x[k]);
-                edgeA.add(ca.previous[k]);
-            }
-            edgeA.inflate(m_meshes[ma].net->thickness);
-            for (int j = 0; j < 3; ++j) {
-                if (!(cb.edgeOwned[tb] & (1u << j))) {
-                    continue;
-                }
-                const std::uint32_t b0 = std::min(b[j], b[(j + 1) % 3]), b1 = std::max(b[j], b[(j + 1) % 3]);
-                if (same && (near(ma, a0, b0) || near(ma, a0, b1) || near(ma, a1, b0) || near(ma, a1, b1))) {
-                    continue;
-                }
-                if (sweptOverlaps(mb, {b0, b1}, edgeA)) {
-                    m_ee.push_back({ma, a0, a1, mb, b0, b1});
-                }
-            }
-        }
-    }
-
-    double thickness(std::uint32_t a, std::uint32_t b) const {
-        return std::max(m_meshes[a].net->thickness, m_meshes[b].net->thickness);
-    }
-    double friction(std::uint32_t a, std::uint32_t b) const {
-        return std::sqrt(m_meshes[a].net->friction * m_meshes[b].net->friction);
-    }
-
-    /// Vertex-triangle distance at the end of the step: the stencil, and the normal from the triangle to
-    /// the point (on the side the point was on when the step began).
-    double vtEnd(const VertexTriangle& c, Stencil& s, Vec3& n) const {
-        SpringNetwork* pn = m_meshes[c.pm].net;
-        SpringNetwork* tn = m_meshes[c.tm].net;
-        const auto& tri = tn->triangles[c.t];
-        double w[3];
-        const Vec3& p = pn->x[c.p];
-        const double d = pointTriangleDistance(p, tn->x[tri[0]], tn->x[tri[1]], tn->x[tri[2]], w);
-        s = {{pn, tn, tn, tn}, {c.p, tri[0], tri[1], tri[2]}, {1.0, -w[0], -w[1], -w[2]}};
-        const Vec3 q = s.sum(&SpringNetwork::x);
-        n = d > 1e-12 ? q * (1.0 / d) : faceNormal(*tn, tri, *m_meshes[c.pm].cc, c.p, *m_meshes[c.tm].cc, *pn);
-        return d;
-    }
-
-    double eeEnd(const EdgeEdge& c, Stencil& s, Vec3& n) const {
-        SpringNetwork* an = m_meshes[c.am].net;
-        SpringNetwork* bn = m_meshes[c.bm].net;
-        double u = 0.0, v = 0.0;
-        const double d = segmentDistance(an->x[c.a0], an->x[c.a1], bn->x[c.b0], bn->x[c.b1], u, v);
-        s = {{an, an, bn, bn}, {c.a0, c.a1, c.b0, c.b1}, {1.0 - u, u, -(1.0 - v), -v}};
-        const Vec3 q = s.sum(&SpringNetwork::x);
-        if (d > 1e-12) {
-            n = q * (1.0 / d);
-        } else {
-            n = cross(an->x[c.a1] - an->x[c.a0], bn->x[c.b1] - bn->x[c.b0]);
-            const double len = length(n);
-            n = len > 0.0 ? n * (1.0 / len) : Vec3{0.0, 1.0, 0.0};
-        }
-        return d;
-    }
-
-    /// The triangle's unit normal, turned towards where the point was at the start of the step.
-    static Vec3 faceNormal(const SpringNetwork& tn, const Triangle& tri, const ClothCollision& pc, std::uint32_t p,
-                           const ClothCollision& tc, const SpringNetwork&) {
-        Vec3 n = cross(tn.x[tri[1]] - tn.x[tri[0]], tn.x[tri[2]] - tn.x[tri[0]]);
-        n = n * (1.0 / std::max(length(n), 1e-300));
-        if (dot(pc.previous[p] - tc.previous[tri[0]], n) < 0.0) {
-            n = -n;
-        }
-        return n;
-    }
-
-    /// Turns n towards the side the pair began the step on; true when it ends on the other side (so the
-    /// push must also undo the crossing).
-    bool orient(const Stencil& s, Vec3& n) const {
-        Vec3 start;
-        for (int k = 0; k < 4; ++k) {
-            start += ownerOf(s.net[k])->previous[s.idx[k]] * s.w[k];
-        }
-        if (dot(start, n) < 0.0) {
-            n = -n;
-            return true;
-        }
-        return false;
-    }
-
-    /// Pushes a contact apart by `depth` along n, removes its approach speed and applies friction.
-    void respond(const Stencil& s, const Vec3& n, double depth, double mu) const {
-        s.apply(&SpringNetwork::x, n * depth);
-        const Vec3 vr = s.sum(&SpringNetwork::v);
-        const double vn = dot(vr, n);
-        if (vn >= 0.0) {
-            return;
-        }
-        Vec3 dv = n * -vn;
-        const Vec3 vt = vr - n * vn;
-        const double speed = length(vt);
-        if (speed > 0.0) {
-            dv -= vt * (std::min(speed, mu * -vn) / speed);
-        }
-        s.apply(&SpringNetwork::v, dv);
-    }
-
-    /// Continuous test of four moving points (vertex-triangle: point, then the triangle; edge-edge: the two
-    /// edges) over the step; stops the first crossing. Returns 1 if it stopped one.
-    int crossing(SpringNetwork* const nets[4], const std::uint32_t idx[4], bool vertexTriangle, double h) const {
-        Vec3 x0[4], d[4];
-        for (int k = 0; k < 4; ++k) {
-            const ClothCollision& cc = *ownerOf(nets[k]);
-            x0[k] = cc.previous[idx[k]];
-            d[k] = nets[k]->x[idx[k]] - x0[k];
-        }
-        // no crossing is possible when the pair starts farther apart than its points can move
-        {
-            double start;
-            if (vertexTriangle) {
-                double b[3];
-                start = pointTriangleDistance(x0[0], x0[1], x0[2], x0[3], b);
-            } else {
-                double u = 0.0, v = 0.0;
-                start = segmentDistance(x0[0], x0[1], x0[2], x0[3], u, v);
-            }
-            double reachA = 0.0, reachB = 0.0;
-            for (int k = 0; k < 4; ++k) {
-                (vertexTriangle ? (k == 0) : (k < 2) ? true : false) ? reachA = std::max(reachA, length(d[k]))
-                                                                      : reachB = std::max(reachB, length(d[k]));
-            }
-            if (start > reachA + reachB) {
-                return 0;
-            }
-        }
-        double c[4], roots[3];
-        coplanarity(x0, d, c);
-        const int n = cubicRoots(c, roots);
-        for (int r = 0; r < n; ++r) {
-            const double t = roots[r];
-            Vec3 xt[4];
-            for (int k = 0; k < 4; ++k) {
-                xt[k] = x0[k] + d[k] * t;
-            }
-            double w[4];
-            double dist;
-            Vec3 normal;
-            if (vertexTriangle) {
-                double b[3];
-                dist = pointTriangleDistance(xt[0], xt[1], xt[2], xt[3], b);
-                w[0] = 1.0;
-                w[1] = -b[0];
-                w[2] = -b[1];
-                w[3] = -b[2];
-                normal = cross(xt[2] - xt[1], xt[3] - xt[1]);
-            } else {
-                double u = 0.0, v = 0.0;
-                dist = segmentDistance(xt[0], xt[1], xt[2], xt[3], u, v);
-                w[0] = 1.0 - u;
-                w[1] = u;
-                w[2] = -(1.0 - v);
-                w[3] = -v;
-                normal = cross(xt[1] - xt[0], xt[3] - xt[2]);
-            }
-            if (dist > 1e-3 * h) {
-                continue; // coplanar, but apart
-            }
-            const double len = length(normal);
-            if (len <= 1e-300) {
-                continue;
-            }
-            normal = normal * (1.0 / len);
-            Stencil s{{nets[0], nets[1], nets[2], nets[3]}, {idx[0], idx[1], idx[2], idx[3]}, {w[0], w[1], w[2], w[3]}};
-            Vec3 q0;
-            for (int k = 0; k < 4; ++k) {
-                q0 += x0[k] * w[k];
-            }
-            if (dot(q0, normal) < 0.0) {
-                normal = -normal; // towards the side the pair started on
-            }
-            const double end = dot(s.sum(&SpringNetwork::x), normal);
-            const double gap = kGapFraction * h;
-            if (end >= gap) {
-                return 0;
-            }
-            // stop the crossing: the end separation back to the gap, and the approach speed gone
-            s.apply(&SpringNetwork::x, normal * (gap - end));
-            const double vn = dot(s.sum(&SpringNetwork::v), normal);
-            if (vn < 0.0) {
-                s.apply(&SpringNetwork::v, normal * -vn);
-            }
-            return 1;
-        }
-        return 0;
-    }
-
-    const ClothCollision* ownerOf(const SpringNetwork* net) const {
-        for (const Mesh& m : m_meshes) {
-            if (m.net == net) {
-                return m.cc;
-            }
-        }
-        return nullptr;
-    }
-
-    std::vector<Mesh>& m_meshes;
-    std::vector<std::array<std::uint32_t, 2>>& m_pairs;
-    std::vector<VertexTriangle>& m_vt;
-    std::vector<EdgeEdge>& m_ee;
-};
-
-/// What one step of the system leaves for the next to reuse: the lists it fills.
-struct ClothScratch {
-    std::vector<Mesh> meshes;
-    std::vector<std::array<std::uint32_t, 2>> pairs;
-    std::vector<VertexTriangle> vt;
-    std::vector<EdgeEdge> ee;
-};
-
-} // namespace
 
 double pointTriangleDistance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double w[3]) {
     // Ericson, Real-Time Collision Detection, 5.1.5, with the barycentric weights of the closest point
@@ -589,139 +1107,116 @@ double pointTriangleDistance(const Vec3& p, const Vec3& a, const Vec3& b, const 
     return done(1 - v - x, v, x);
 }
 
+ClothCollision makeClothCollision(const std::vector<Vec3>& x) {
+    ClothCollision cc;
+    cc.rest = x;
+    cc.previous = x;
+    return cc;
+}
+
 namespace {
 
-/// Does segment pq meet triangle abc (boundaries included)?
-bool segmentMeetsTriangle(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
-    const Vec3 n = cross(b - a, c - a);
-    const double dp = dot(p - a, n), dq = dot(q - a, n);
-    if ((dp > 0.0 && dq > 0.0) || (dp < 0.0 && dq < 0.0) || dp == dq) {
-        return false; // both on one side, or parallel (coplanar contact is not looked for)
+/// Runs the continuous test over every candidate until it finds nothing: while it finds contacts, first
+/// inelastic projection (while the count falls, at most `projections` rounds), then rigid impact zones (at
+/// most `zones` rounds), then freezing: the masses of each contact go back to where the step began
+/// (kFreezeRounds), and past that every free mass does. Each round is bounded, so the whole is.
+void failSafe(Contact& contact, ClothContactStats& stats, int projections, int zones) {
+    int last = 0;
+    for (int r = 0; r < projections + zones + kFreezeRounds; ++r) {
+        contact.refreshCandidates();
+        const int found = contact.continuous(false);
+        if (found == 0) {
+            return;
+        }
+        // projection while it makes progress; contacts it cannot move go on to the zones
+        if (r > 0 && found >= last && r < projections) {
+            projections = r;
+        }
+        last = found;
+        if (r < projections) {
+            ++stats.projectionRounds;
+            contact.project();
+        } else if (r < projections + zones) {
+            ++stats.zoneRounds;
+            contact.zones();
+        } else {
+            ++stats.freezeRounds;
+            contact.freeze();
+        }
     }
-    const Vec3 x = p + (q - p) * (dp / (dp - dq));
-    // inside: on the inner side of every edge
-    const double e0 = dot(cross(b - a, x - a), n), e1 = dot(cross(c - b, x - b), n),
-                 e2 = dot(cross(a - c, x - c), n);
-    return (e0 >= 0.0 && e1 >= 0.0 && e2 >= 0.0) || (e0 <= 0.0 && e1 <= 0.0 && e2 <= 0.0);
+    contact.holdStill();
+    stats.heldStill = true;
 }
 
 } // namespace
 
-bool trianglesIntersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
-                        const Vec3& b2) {
-    const Vec3 a[3] = {a0, a1, a2}, b[3] = {b0, b1, b2};
-    for (int i = 0; i < 3; ++i) {
-        if (segmentMeetsTriangle(a[i], a[(i + 1) % 3], b0, b1, b2) ||
-            segmentMeetsTriangle(b[i], b[(i + 1) % 3], a0, a1, a2)) {
-            return true;
-        }
-    }
-    return false;
-}
-
 void collideCloth(World& world, const StepContext& ctx) {
     ClothScratch* kept = world.tryResource<ClothScratch>();
-    ClothScratch& scratch = kept ? *kept : world.setResource<ClothScratch>();
-    std::vector<Mesh>& meshes = scratch.meshes;
-    meshes.clear();
-    world.view<SpringNetwork>().each([&](Entity e, SpringNetwork& net) {
-        if (!net.selfCollision || net.frozen || net.triangles.empty()) {
-            return;
-        }
-        ClothCollision* cc = world.tryGet<ClothCollision>(e);
-        if (!cc) {
-            // the first step: where the masses were before it, from their velocities
-            ClothCollision fresh;
-            fresh.previous.resize(net.x.size());
-            for (std::size_t i = 0; i < net.x.size(); ++i) {
-                fresh.previous[i] = net.x[i] - net.v[i] * ctx.dt;
-            }
-            world.commands().emplace(e, std::move(fresh));
-            return; // from the next step on (the component arrives at the end of this phase)
-        }
-        meshes.push_back({&net, cc});
-    });
-    if (meshes.empty()) {
+    ClothScratch& s = kept ? *kept : world.setResource<ClothScratch>();
+    ClothContactStats* keptStats = world.tryResource<ClothContactStats>();
+    ClothContactStats& stats = keptStats ? *keptStats : world.setResource<ClothContactStats>();
+    if (!prepare(world, s)) {
         return;
     }
-    // refit (or build) each mesh's tree over its swept, inflated triangles
-    for (Mesh& m : meshes) {
-        ClothCollision& cc = *m.cc;
-        if (cc.previous.size() != m.net->x.size()) {
-            cc.previous = m.net->x;
-        }
-        if (cc.vertexOwner.size() != m.net->x.size() || cc.edgeOwned.size() != m.net->triangles.size()) {
-            // the first triangle of each vertex and of each edge: the one that answers for it in queries
-            const auto& tris = m.net->triangles;
-            cc.vertexOwner.assign(m.net->x.size(), ~0u);
-            cc.edgeOwned.assign(tris.size(), 0);
-            std::vector<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, int>> edges;
-            for (std::uint32_t t = 0; t < tris.size(); ++t) {
-                for (int k = 0; k < 3; ++k) {
-                    cc.vertexOwner[tris[t][k]] = std::min(cc.vertexOwner[tris[t][k]], t);
-                    const std::uint32_t u = tris[t][k], v = tris[t][(k + 1) % 3];
-                    edges.emplace_back(std::min(u, v), std::max(u, v), t, k);
-                }
-            }
-            std::sort(edges.begin(), edges.end());
-            for (std::size_t e = 0; e < edges.size(); ++e) {
-                const auto& [u, v, t, k] = edges[e];
-                if (e == 0 || std::get<0>(edges[e - 1]) != u || std::get<1>(edges[e - 1]) != v) {
-                    cc.edgeOwned[t] = std::uint8_t(cc.edgeOwned[t] | (1u << k));
-                }
-            }
-        }
-        if (cc.linked.size() != m.net->x.size()) {
-            cc.linked.assign(m.net->x.size(), {});
-            for (const Triangle& t : m.net->triangles) {
-                for (int a = 0; a < 3; ++a) {
-                    for (int b = 0; b < 3; ++b) {
-                        if (a != b) {
-                            cc.linked[t[a]].push_back(t[b]);
-                        }
-                    }
-                }
-            }
-            for (auto& list : cc.linked) {
-                std::sort(list.begin(), list.end());
-                list.erase(std::unique(list.begin(), list.end()), list.end());
-            }
-        }
-        cc.boxes.resize(m.net->triangles.size());
-        std::vector<Vec3>& sweep = cc.previous; // box over previous and current: previous + (x - previous)
-        for (std::size_t t = 0; t < m.net->triangles.size(); ++t) {
-            Aabb b = triangleBox(m.net->triangles[t], m.net->x, {}, 0.0);
-            b.add(triangleBox(m.net->triangles[t], sweep, {}, 0.0));
-            b.inflate(m.net->thickness);
-            cc.boxes[t] = b;
-        }
-        if (cc.tree.empty()) {
-            cc.tree.build(cc.boxes);
-        } else if (!cc.tree.refit(cc.boxes)) {
-            cc.tree.build(cc.boxes);
-            ++cc.rebuilds;
+    Contact contact(s, ctx);
+    // this step's figures from zero; the run's counts carried on
+    ClothContactStats fresh;
+    fresh.steps = stats.steps + 1;
+    fresh.stepsWithZones = stats.stepsWithZones;
+    fresh.stepsHeldStill = stats.stepsHeldStill;
+    stats = fresh;
+    holdOnColliders(world, s, false);
+    contact.refreshCandidates();
+    contact.testEverything();
+    stats.vertexTriangle = s.vt.size();
+    stats.edgeEdge = s.ee.size();
+    // pushing one pair apart can press another together: a few passes (a contact the continuous passes
+    // stop is left a small gap apart; the next step's repulsion takes it back to the thickness)
+    {
+        Stage stage(ctx, "cloth_collision.proximity");
+        for (int pass = 0; pass < kProximityPasses && contact.proximity(pass == 0) > 0; ++pass) {
         }
     }
-    Solver solver(meshes, scratch.pairs, scratch.vt, scratch.ee);
-    solver.gather();
-    // pushing one pair apart can press another together: a few passes of each; the crossings stopped
-    // keep only a small gap, so the repulsion passes come again after them
-    auto repel = [&] {
-        for (int pass = 0; pass < kProximityPasses; ++pass) {
-            if (solver.proximity() == 0) {
-                break;
-            }
-        }
-    };
-    repel();
-    for (int pass = 0; pass < kContinuousPasses; ++pass) {
-        if (solver.continuous() == 0) {
-            break;
+    // continuous passes until one finds nothing: that pass (over candidates still valid for where the
+    // masses are) is the proof that the step crosses nothing
+    bool clean = false;
+    {
+        Stage stage(ctx, "cloth_collision.ccd");
+        for (int pass = 0; pass < kContinuousPasses && !clean; ++pass) {
+            contact.refreshCandidates();
+            const int found = contact.continuous(true);
+            stats.ccdContacts += found;
+            clean = found == 0;
         }
     }
-    repel();
-    for (Mesh& m : meshes) {
+    // the fail-safe, when they did not settle
+    if (!clean) {
+        Stage stage(ctx, "cloth_collision.zones");
+        failSafe(contact, stats, kProjectionRounds, kZoneRounds);
+    }
+    // colliders put back what the cloth pushed into them (and seat it); if that makes a contact, the
+    // fail-safe again, freezing at once: a frozen mass goes back to where it began, outside the collider
+    if (holdOnColliders(world, s, true) > 0) {
+        Stage stage(ctx, "cloth_collision.zones");
+        failSafe(contact, stats, 0, 0);
+    }
+    stats.stepsWithZones += stats.zoneRounds > 0;
+    stats.stepsHeldStill += stats.heldStill;
+    // back into the networks; the start of the next step is where this one ended
+    for (const Mesh& m : s.meshes) {
+        std::copy(s.x.begin() + m.vertexOffset, s.x.begin() + m.vertexOffset + std::ptrdiff_t(m.net->x.size()),
+                  m.net->x.begin());
+        std::copy(s.v.begin() + m.vertexOffset, s.v.begin() + m.vertexOffset + std::ptrdiff_t(m.net->v.size()),
+                  m.net->v.begin());
         m.cc->previous = m.net->x;
+    }
+    // the audit: once at a layout's first step (a scene that starts tangled is told so), then after every
+    // step with --check-contact
+    const RunChecks* checks = world.tryResource<RunChecks>();
+    const bool checking = checks && checks->contact;
+    if (checking || !s.startChecked) {
+        Stage stage(ctx, "cloth_collision.audit");
+        stats.crossings = audit(world, ctx, s, checking);
     }
 }
 

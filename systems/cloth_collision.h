@@ -1,44 +1,84 @@
 #pragma once
-// Cloth self-collision and cloth-against-cloth collision (Bridson, Fedkiw & Anderson 2002, "Robust
-// treatment of collisions, contact and friction for cloth animation"), for spring networks with surface
-// triangles and `self_collision = true`.
+// Cloth contact that never ends crossed: self-collision and cloth-against-cloth collision for spring
+// networks with surface triangles and `self_collision = true`, after Bridson, Fedkiw and Anderson 2002
+// ("Robust treatment of collisions, contact and friction for cloth animation"), with Harmon et al. 2008's
+// inelastic projection and Provot 1997's rigid impact zones as the fail-safe.
 //
-// Each such network keeps an AABB hierarchy over its triangles (systems/bvh.h), each box swept from where
-// the triangle was at the start of the step to where the integrator (and the collisions with rigid bodies)
-// left it, inflated by the thickness; refitted every step, rebuilt when it loosens. Pairs of triangles that
-// share no vertex and whose boxes overlap give vertex-triangle and edge-edge pairs (each once), then:
-//   1. proximity: a pair closer than the thickness at the end of the step is pushed apart to the
-//      thickness; the velocity with which it approaches is removed (an inelastic repulsion) and its sliding
-//      velocity loses friction * the normal change (Coulomb);
-//   2. continuous collision: for each pair, the times in the step at which its four points are coplanar
-//      (the roots of a cubic), and at the first such time where they actually touch, an impulse that stops
-//      the crossing, keeping a small gap; repeated (a few passes) until no pair crosses.
-// Corrections are shared by the points' inverse masses and barycentric weights (pinned masses do not
-// move), applied to positions and, divided by dt, to velocities, so the step stays consistent for every
-// integrator. Bridson's last resort (rigid impact zones) is not implemented: a pair still crossing after
-// the passes is left to the next step.
+// Two surfaces are kept the mean of their cloths' thicknesses apart (half of each, either side of its
+// mid-surface); a cloth keeps its own thickness from itself.
 //
-// System: reads and writes SpringNetwork x, v; keeps a ClothCollision component per network. Phase: fixed,
-// after the collisions with rigid bodies.
+// Which pairs collide (the one place this rule is stated): every vertex against every triangle it is not a
+// corner of, and every edge against every edge it shares no vertex with, within one cloth and between
+// cloths; masses two cells apart included. The only other exclusion is a pair, within one cloth, whose
+// distance in the rest state (the positions the cloth was loaded with) is below the thickness, as NvCloth
+// and Unity do: such a pair would be pushed apart while the cloth lies flat, fighting its own springs. It
+// is left out of the repulsion only: the continuous tests still keep it from crossing (left out of those
+// too, two parallel diagonals of neighbouring quads passed through each other in a sheet whose thickness
+// was 0.72 of its spacing).
+//
+// Each step, over all such cloths at once (their vertices and triangles in one flat array):
+//   refit     one AABB hierarchy over every triangle, each box swept from where the triangle was at the
+//             start of the step to where the integrator (and the colliders) left it, inflated by its
+//             cloth's thickness; refitted, rebuilt when loose;
+//   pairs     vertex-triangle and edge-edge candidates, each once, by the rule above; kept from step to
+//             step while no mass has moved half the thickness from where they were gathered;
+//   proximity pairs closer than the thickness at the end of the step pushed apart to it, their approach
+//             speed removed and their sliding slowed by friction (inelastic repulsion), a few passes;
+//   ccd       continuous tests of every candidate's motion over the step (systems/ccd.h: inclusion-based,
+//             conservative), each contact stopped a small gap short, a few passes, each testing again only
+//             the candidates whose masses the pass before moved;
+//   zones     the fail-safe, only while a continuous test still finds a contact: inelastic projection of
+//             all the remaining contacts together (Gauss-Seidel to convergence, constraints kept across
+//             rounds) while it makes progress, then rigid impact zones: the masses of each knot of contacts
+//             move as one rigid body from where they started (its momentum and angular momentum kept),
+//             zones merging round by round; a zone that holds a mass of infinite mass (pinned, or resting
+//             on a collider) stays where it started. Then, if contacts remain, their masses are frozen
+//             where the step began, round by round. Every loop has a cap; past the last, every free mass
+//             stays where the step began, which was clean. So no step ends with a crossing the step before
+//             it did not have;
+//   audit     once at the first step (a cloth that starts crossed gets a note naming it), and with
+//             `run --check-contact` after every step: an exact triangle-triangle test of every non-incident
+//             pair (CGAL's exact predicates); the first new crossing fails the run like a blow-up.
+// Colliders (the ground, static and moving bodies) take part as infinite-mass members: a mass within
+// 1.25 thicknesses of a collider surface is seated on it for the step (the cloth's own contacts cannot
+// push it into the collider, only along it), and a mass the cloth pushed into a collider anyway is put
+// back out and seated, and the fail-safe runs again, freezing at once (a frozen mass goes back to where it
+// began, outside a static collider).
+// Each stage is timed as its own profile entry (cloth_collision.refit, ...).
+//
+// System: reads RigidBody; reads and writes SpringNetwork x, v and ClothCollision. Phase: fixed, after the
+// collisions with rigid bodies.
 
 #include "engine/catalog.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
 #include "systems/bvh.h"
 
+#include <cstdint>
 #include <vector>
 
 namespace tumble {
 
-/// A network's collision state: positions at the start of the step, the hierarchy and scratch.
+/// A self-colliding network's contact state, made when the cloth is loaded.
 struct ClothCollision {
+    std::vector<Vec3> rest;     ///< m, the positions the cloth was loaded with (the rest state of the pair rule)
     std::vector<Vec3> previous; ///< m, where the masses were when the step began
-    std::vector<Aabb> boxes;    ///< per triangle, swept and inflated
-    std::vector<std::vector<std::uint32_t>> linked; ///< per mass, the masses a spring joins it to, sorted
-    std::vector<std::uint32_t> vertexOwner;         ///< per mass, the first triangle that holds it
-    std::vector<std::uint8_t> edgeOwned;            ///< per triangle, bit k: it is the first with edge k
-    Bvh tree;
-    std::size_t rebuilds = 0; ///< times the tree was rebuilt after its first build
+    std::uint64_t crossingsReported = 0; ///< the audit's failures already said for this cloth
+};
+
+/// What the last step of cloth contact did (a world resource, for the tests and the profile).
+struct ClothContactStats {
+    std::size_t vertexTriangle = 0; ///< candidate pairs
+    std::size_t edgeEdge = 0;
+    int ccdContacts = 0;       ///< contacts the continuous passes stopped
+    int projectionRounds = 0;  ///< rounds of inelastic projection the fail-safe needed
+    int zoneRounds = 0;        ///< rounds of rigid impact zones
+    int freezeRounds = 0;      ///< rounds that froze the masses of the contacts left where the step began
+    bool heldStill = false;    ///< every cap was reached: the free masses stayed where the step began
+    std::size_t crossings = 0; ///< intersecting non-incident triangle pairs after the step (audit only)
+    std::uint64_t steps = 0;   ///< steps run
+    std::uint64_t stepsWithZones = 0;
+    std::uint64_t stepsHeldStill = 0;
 };
 
 /// One step of self- and cloth-cloth collision for every network that asks for it.
@@ -47,11 +87,17 @@ void collideCloth(World& world, const StepContext& ctx);
 /// Registers the system.
 void registerClothCollisionSystem(Catalog& catalog);
 
-/// Exact test: do the two triangles intersect (share a point)? For checking results.
+/// The collision state a self-colliding network starts with (its current positions as rest and start).
+ClothCollision makeClothCollision(const std::vector<Vec3>& x);
+
+/// Exact test: do the two triangles share a point? (CGAL's exact predicates; systems/triangle_intersection.cpp)
 bool trianglesIntersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
                         const Vec3& b2);
 
 /// Distance from p to the triangle abc (and the barycentric weights of the closest point).
 double pointTriangleDistance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double w[3]);
+
+/// Distance between segments p0-p1 and q0-q1, and the parameters s, t of the closest points.
+double segmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double& s, double& t);
 
 } // namespace tumble

@@ -6,6 +6,7 @@
 #include "engine/random.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
+#include "systems/cloth_collision.h"
 #include "systems/spring_builders.h"
 #include "systems/spring_integrators.h"
 
@@ -82,11 +83,15 @@ void attach(TableReader& r, World& world, Entity entity, SpringNetwork net) {
     const bool implicit = net.integrator == Integrator::ImplicitEuler;
     const std::uint64_t bytes = net.x.size() * (implicit ? 600u : 200u) +
                                 net.links.size() * (implicit ? 350u : 80u) +
-                                (net.selfCollision ? net.triangles.size() * 300u : 0u);
+                                (net.selfCollision ? net.triangles.size() * 1000u : 0u);
     r.charge("", bytes,
              r.where() + " (" + std::to_string(net.x.size()) + " masses, " +
                  std::to_string(net.links.size()) + " springs" + (implicit ? ", implicit" : "") + ")");
     net.implicitCharged = implicit;
+    if (net.selfCollision) {
+        // the rest state of the contact pair rule, and the start of the first step
+        world.emplace<ClothCollision>(entity, makeClothCollision(net.x));
+    }
     world.emplace<SpringNetwork>(entity, std::move(net));
     world.emplace<SpringWorkspace>(entity);
 }
