@@ -73,7 +73,7 @@ asan)
     drawing='RenderSystem|Renders'
     # the sweep's scenarios and the random cloth drops run in the sanitized build too, fewer of them (each is
     # slower)
-    env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 TUMBLE_SWEEP_COUNT=200 TUMBLE_DROP_COUNT=3 \
+    env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 TUMBLE_SWEEP_COUNT=200 TUMBLE_DROP_COUNT=1 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs" --label-exclude budget -E "$drawing"
     env "${sanitizer_env[@]}" ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
         ctest --test-dir "$root/build-asan" --output-on-failure -j "$jobs" --label-exclude budget -R "$drawing"
