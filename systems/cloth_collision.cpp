@@ -8,6 +8,8 @@
 #include "systems/ccd.h"
 #include "systems/collision_system.h"
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -126,38 +128,6 @@ Vec3 rotateBy(const Vec3& a, const Vec3& r) {
     const Vec3 k = a * (1.0 / angle);
     const double c = std::cos(angle), s = std::sin(angle);
     return r * c + cross(k, r) * s + k * (dot(k, r) * (1.0 - c));
-}
-
-/// Solves the symmetric 3x3 system I w = b (rows of I), regularised so that a line of masses (no inertia
-/// about its axis) still has an answer.
-Vec3 solve3(const double I[3][3], const Vec3& b) {
-    double m[3][3];
-    const double trace = I[0][0] + I[1][1] + I[2][2];
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) {
-            m[r][c] = I[r][c] + (r == c ? 1e-9 * trace + 1e-300 : 0.0);
-        }
-    }
-    const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                       m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                       m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) {
-        return {};
-    }
-    const double bb[3] = {b.x, b.y, b.z};
-    double out[3];
-    for (int col = 0; col < 3; ++col) {
-        double a[3][3];
-        for (int r = 0; r < 3; ++r) {
-            for (int c = 0; c < 3; ++c) {
-                a[r][c] = c == col ? bb[r] : m[r][c];
-            }
-        }
-        out[col] = (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                    a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])) /
-                   det;
-    }
-    return {out[0], out[1], out[2]};
 }
 
 class Contact {
@@ -673,23 +643,21 @@ private:
         }
         centre = centre * (1.0 / mass);
         const Vec3 vc = momentum * (1.0 / mass);
-        double inertia[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-        Vec3 angular;
+        Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+        Eigen::Vector3d angular = Eigen::Vector3d::Zero();
         for (std::size_t k = first; k < last; ++k) {
             const std::uint32_t i = m_s.members[k];
             const double m = 1.0 / m_s.w[i];
             const Vec3 r = m_s.x0[i] - centre;
-            const Vec3 vi = (m_s.xc[i] - m_s.x0[i]) * (1.0 / dt) - vc;
-            angular += cross(r, vi) * m;
-            const double rr[3] = {r.x, r.y, r.z};
-            const double r2 = dot(r, r);
-            for (int a = 0; a < 3; ++a) {
-                for (int b = 0; b < 3; ++b) {
-                    inertia[a][b] += m * ((a == b ? r2 : 0.0) - rr[a] * rr[b]);
-                }
-            }
+            const Vec3 l = cross(r, (m_s.xc[i] - m_s.x0[i]) * (1.0 / dt) - vc) * m;
+            const Eigen::Vector3d re(r.x, r.y, r.z);
+            angular += Eigen::Vector3d(l.x, l.y, l.z);
+            inertia += m * (re.squaredNorm() * Eigen::Matrix3d::Identity() - re * re.transpose());
         }
-        const Vec3 omega = solve3(inertia, angular);
+        // the least-squares, least-norm solution: a zone whose masses lie on a line has no inertia about
+        // it, and turns about it not at all
+        const Eigen::Vector3d w = inertia.completeOrthogonalDecomposition().solve(angular);
+        const Vec3 omega = w.allFinite() ? Vec3{w.x(), w.y(), w.z()} : Vec3{};
         for (std::size_t k = first; k < last; ++k) {
             const std::uint32_t i = m_s.members[k];
             const Vec3 r = rotateBy(omega * dt, m_s.x0[i] - centre);
@@ -838,21 +806,25 @@ bool prepare(World& world, ClothScratch& s) {
         return false;
     }
     // the layout: rebuilt only when the set of meshes changes
-    std::vector<Entity> layout;
-    std::vector<std::uint32_t> sizes;
     std::uint32_t vertices = 0, triangles = 0;
-    for (Mesh& m : s.meshes) {
+    bool same = s.layout.size() == s.meshes.size();
+    for (std::size_t k = 0; k < s.meshes.size(); ++k) {
+        Mesh& m = s.meshes[k];
         m.vertexOffset = vertices;
         m.triangleOffset = triangles;
         vertices += std::uint32_t(m.net->x.size());
         triangles += std::uint32_t(m.net->triangles.size());
-        layout.push_back(m.entity);
-        sizes.push_back(std::uint32_t(m.net->x.size()));
-        sizes.push_back(std::uint32_t(m.net->triangles.size()));
+        same = same && s.layout[k] == m.entity && s.sizes[2 * k] == m.net->x.size() &&
+               s.sizes[2 * k + 1] == m.net->triangles.size();
     }
-    if (layout != s.layout || sizes != s.sizes) {
-        s.layout = layout;
-        s.sizes = sizes;
+    if (!same) {
+        s.layout.clear();
+        s.sizes.clear();
+        for (const Mesh& m : s.meshes) {
+            s.layout.push_back(m.entity);
+            s.sizes.push_back(std::uint32_t(m.net->x.size()));
+            s.sizes.push_back(std::uint32_t(m.net->triangles.size()));
+        }
         s.tris.clear();
         s.meshOf.assign(vertices, 0);
         for (std::uint32_t mi = 0; mi < s.meshes.size(); ++mi) {
