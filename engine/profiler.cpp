@@ -49,6 +49,24 @@ int Profiler::stageSlot(std::string_view name, Phase phase) {
     return addSlot(std::string(name), phase, false);
 }
 
+int Profiler::counterSlot(std::string_view name) {
+    for (std::size_t i = 0; i < m_counters.size(); ++i) {
+        if (m_counters[i].name == name) {
+            return static_cast<int>(i);
+        }
+    }
+    m_counters.push_back({std::string(name)});
+    return static_cast<int>(m_counters.size() - 1);
+}
+
+void Profiler::count(int counter, double value) noexcept {
+    CounterStats& c = m_counters[static_cast<std::size_t>(counter)];
+    c.max = c.samples == 0 ? value : std::max(c.max, value);
+    ++c.samples;
+    c.nonzero += value != 0.0;
+    c.last = value;
+}
+
 void Profiler::beginFrame(std::uint64_t frame) {
     m_frame = frame;
     m_frameStartNs = nowNs();

@@ -31,6 +31,16 @@ struct SlotStats {
     double maxMs = 0.0; ///< over every call of the run
 };
 
+/// A count a system reports once a step (a figure of its work, not a time: the crossed pairs of triangles
+/// cloth contact is untangling, say), summed up over the run.
+struct CounterStats {
+    std::string name;
+    std::uint64_t samples = 0; ///< reports
+    std::uint64_t nonzero = 0; ///< reports that were not zero
+    double max = 0.0;
+    double last = 0.0;
+};
+
 /// A slot's recent time, for a live display (tumble view's overlay).
 struct RecentSlot {
     std::string name;
@@ -66,6 +76,11 @@ public:
     /// idea, so a system's cost can be seen stage by stage. Stages are not phases: they do not add to
     /// the frame's physics time, which their system's phase already holds.
     int stageSlot(std::string_view name, Phase phase);
+    /// The id of a counter, made on first use.
+    int counterSlot(std::string_view name);
+    /// One report of a counter.
+    void count(int counter, double value) noexcept;
+    std::vector<CounterStats> counterStats() const { return m_counters; }
 
     /// Keep every timed scope as a trace event (memory grows with the run).
     void enableTrace(bool on) { m_trace = on; }
@@ -129,6 +144,7 @@ private:
     TimeSource::time_point m_origin;
     std::size_t m_capacity;
     std::vector<Slot> m_slots;
+    std::vector<CounterStats> m_counters;
     bool m_trace = false;
     std::vector<TraceEvent> m_events;
     bool m_traceTruncated = false;

@@ -159,7 +159,14 @@ std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, s
         .key("physics_max_ms")
         .value(roundMs(f.physicsMaxMs));
     w.key("render_p50_ms").value(roundMs(f.renderP50Ms)).key("over_budget_frames").value(f.overBudgetFrames);
-    w.endObject().endObject();
+    w.endObject();
+    // what systems count of their work, a report a step (the crossed pairs cloth contact untangles, say)
+    w.key("counters").beginArray();
+    for (const CounterStats& c : profiler.counterStats()) {
+        w.beginObject().key("name").value(c.name).key("samples").value(c.samples);
+        w.key("nonzero").value(c.nonzero).key("max").value(c.max).key("last").value(c.last).endObject();
+    }
+    w.endArray().endObject();
     out += '\n';
     return out;
 }

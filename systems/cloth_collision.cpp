@@ -6,6 +6,7 @@
 #include "engine/profiler.h"
 #include "engine/run_report.h"
 #include "systems/ccd.h"
+#include "systems/cloth_untangle.h"
 #include "systems/collision_system.h"
 
 #include <Eigen/Dense>
@@ -21,16 +22,20 @@ namespace tumble {
 namespace {
 
 constexpr int kProximityPasses = 3;
-constexpr double kSettled = 0.99;       ///< a pair pushed from closer than this fraction of the thickness counts
+constexpr double kSettled = 0.99; ///< a pair pushed from closer than this fraction of the thickness counts
 constexpr int kContinuousPasses = 4;
-constexpr double kGapFraction = 0.1;    ///< a stopped contact is left this fraction of the thickness apart
-constexpr double kDetectFraction = 0.05; ///< the continuous tests look for approaches closer than this fraction
+constexpr double kGapFraction = 0.1; ///< a stopped contact is left this fraction of the thickness apart
+/// the continuous tests look for approaches closer than this fraction of the thickness
+constexpr double kDetectFraction = 0.05;
 constexpr double kRestingFraction = 1.25; ///< a mass this close to a collider (in thicknesses) rests on it
 constexpr int kProjectionRounds = 6;
 constexpr int kProjectionIterations = 64;
 constexpr int kZoneRounds = 8;
 constexpr int kFreezeRounds = 16;
 constexpr double kMaxAmplification = 4.0; ///< a contact may move no point more than this times its own change
+constexpr int kUntangleIterations = 4;    ///< rounds of untangling a step while a cloth is tangled
+constexpr double kUntangleStep = 0.25;    ///< the most one of them moves a mass, in its cloth's edge lengths
+constexpr std::uint64_t kTangledPatience = 120; ///< steps tangled before a cloth is said to be stuck
 
 /// A self-colliding network in this step's flat arrays.
 struct Mesh {
@@ -76,34 +81,51 @@ struct ClothScratch {
     std::vector<Entity> layout;       ///< the meshes the global arrays were laid out for
     std::vector<std::uint32_t> sizes; ///< and their vertex and triangle counts
     // per vertex
-    std::vector<Vec3> x0, x, xc, v, xg; ///< start, current, candidate (as the step left it), velocity, at gather
-    std::vector<double> w;              ///< inverse mass for contacts: 0 when pinned
-    std::vector<Vec3> seat;             ///< the outward normal of the collider a mass rests on
-    std::vector<std::uint8_t> seated;   ///< 1 when the mass rests on a collider
+    /// start, current, candidate (as the step left it), velocity, at gather
+    std::vector<Vec3> x0, x, xc, v, xg;
+    std::vector<double> w;            ///< inverse mass for contacts: 0 when pinned
+    std::vector<Vec3> seat;           ///< the outward normal of the collider a mass rests on
+    std::vector<std::uint8_t> seated; ///< 1 when the mass rests on a collider
     std::vector<std::uint32_t> meshOf;
     std::vector<std::uint32_t> vertexOwner; ///< the first triangle that holds the vertex
     std::vector<std::uint32_t> parent;      ///< impact zones: union-find
     // per triangle
     std::vector<Triangle> tris;
     std::vector<std::uint8_t> edgeOwned; ///< bit k: the first triangle with edge k
-    std::vector<Aabb> boxes;       ///< swept, inflated by the thickness
-    std::vector<Aabb> vertexBoxes; ///< per vertex, the same
+    std::vector<Aabb> boxes;             ///< swept, inflated by the thickness
+    std::vector<Aabb> vertexBoxes;       ///< per vertex, the same
     Bvh tree;
     // per step
     std::vector<std::array<std::uint32_t, 2>> pairs;
     std::vector<VertexTriangle> vt;
     std::vector<EdgeEdge> ee;
     std::vector<Constraint> constraints;
-    std::vector<Constraint> hits;      ///< contacts found by a collecting pass
-    std::vector<std::uint32_t> nearVt, nearEe; ///< candidates within twice the thickness (proximity)
+    std::vector<Constraint> hits;                 ///< contacts found by a collecting pass
+    std::vector<std::uint32_t> nearVt, nearEe;    ///< candidates within twice the thickness (proximity)
     std::vector<std::uint8_t> moved, movedBefore; ///< per vertex: moved during this continuous pass, the last
     bool testAll = true;                          ///< the next continuous pass tests every candidate
     std::vector<std::uint32_t> members;
-    std::vector<std::uint8_t> joined;  ///< per vertex: in an impact zone
-    std::vector<VertexTriangle> restVertexTriangle; ///< pairs within one cloth closer than its thickness at rest
+    std::vector<std::uint8_t> joined; ///< per vertex: in an impact zone
+    /// pairs within one cloth closer than its thickness at rest
+    std::vector<VertexTriangle> restVertexTriangle;
     std::vector<EdgeEdge> restEdgeEdge;
-    bool startChecked = false;                             ///< the audit has looked at this layout's first step
-    std::vector<std::array<std::uint32_t, 2>> startCrossings; ///< the crossed pairs it found there, sorted
+    std::vector<double> spacing; ///< per mesh: its mean edge length at rest
+    // tangles (cloth that is crossed already, untangled: systems/cloth_untangle.h)
+    bool startChecked = false; ///< this layout's first step has been looked at for crossings
+    std::vector<std::array<std::uint32_t, 2>> tangled; ///< crossed pairs of triangles, sorted, as last found
+    std::vector<std::array<std::uint32_t, 2>> found;   ///< a search for them in progress
+    std::vector<std::uint8_t> flagged; ///< per vertex: a corner of a tangled triangle this step
+    /// per vertex: 1 + the region it was moved back through the cloth with (this step), or 0
+    std::vector<std::uint32_t> pushed;
+    std::vector<std::uint8_t> held; ///< per vertex: pinned, or resting on a collider (not to be moved)
+    bool anyFlagged = false;
+    VertexGraph graph; ///< the meshes' edges, for the regions
+    RegionChoice choice;
+    std::vector<Vec3> grad;       ///< per vertex: the contour length's gradient
+    std::vector<Aabb> crossBoxes; ///< per triangle, unswept, for the search
+    Bvh crossTree;
+    std::uint64_t tangledSteps = 0; ///< steps in a row that began tangled
+    bool kinematic = false;         ///< a pinned (or anchored) mass moved during this step
 };
 
 /// Times a stage of the system into its own profile entry.
@@ -130,6 +152,51 @@ Vec3 rotateBy(const Vec3& a, const Vec3& r) {
     return r * c + cross(k, r) * s + k * (dot(k, r) * (1.0 - c));
 }
 
+/// The pairs of triangles that share no vertex and intersect at positions x (an exact test: CGAL's
+/// predicates), sorted, into out.
+void findCrossings(ClothScratch& s, const std::vector<Vec3>& x,
+                   std::vector<std::array<std::uint32_t, 2>>& out) {
+    s.crossBoxes.resize(s.tris.size());
+    for (std::size_t t = 0; t < s.tris.size(); ++t) {
+        Aabb b;
+        for (std::uint32_t k : s.tris[t]) {
+            b.add(x[k]);
+        }
+        s.crossBoxes[t] = b;
+    }
+    if (s.crossTree.empty() || !s.crossTree.refit(s.crossBoxes)) {
+        s.crossTree.build(s.crossBoxes);
+    }
+    out.clear();
+    s.crossTree.selfPairs(out);
+    std::erase_if(out, [&](const std::array<std::uint32_t, 2>& p) {
+        const Triangle& a = s.tris[p[0]];
+        const Triangle& b = s.tris[p[1]];
+        for (std::uint32_t k : a) {
+            if (k == b[0] || k == b[1] || k == b[2]) {
+                return true;
+            }
+        }
+        return !trianglesIntersect(x[a[0]], x[a[1]], x[a[2]], x[b[0]], x[b[1]], x[b[2]]);
+    });
+    std::sort(out.begin(), out.end());
+}
+
+/// A crossed pair the untangling answers for: between two parts that were tangled this step (each
+/// triangle with a flagged corner), or with a region that was moved back through the cloth.
+bool excused(const ClothScratch& s, const std::array<std::uint32_t, 2>& pair) {
+    bool flagged[2] = {false, false};
+    for (int k = 0; k < 2; ++k) {
+        for (std::uint32_t v : s.tris[pair[k]]) {
+            if (s.pushed[v]) {
+                return true;
+            }
+            flagged[k] = flagged[k] || s.flagged[v];
+        }
+    }
+    return flagged[0] && flagged[1];
+}
+
 class Contact {
 public:
     Contact(ClothScratch& s, const StepContext& ctx) : m_s(s), m_ctx(ctx) {}
@@ -148,7 +215,8 @@ public:
         for (int k = 0; k < 4; ++k) {
             const std::uint32_t i = st.i[k];
             inv[k] = m_s.w[i];
-            if (inv[k] > 0.0 && m_s.seated[i] && dot(dq, m_s.seat[i]) * st.w[k] < -0.1 * size * std::abs(st.w[k])) {
+            if (inv[k] > 0.0 && m_s.seated[i] &&
+                dot(dq, m_s.seat[i]) * st.w[k] < -0.1 * size * std::abs(st.w[k])) {
                 inv[k] = 0.0;
             }
             m += st.w[k] * st.w[k] * inv[k];
@@ -281,12 +349,13 @@ public:
         const std::size_t vtCount = first ? m_s.vt.size() : m_s.nearVt.size();
         for (std::size_t k = 0; k < vtCount; ++k) {
             const VertexTriangle& c = first ? m_s.vt[k] : m_s.vt[m_s.nearVt[k]];
-            if (c.restClose) {
+            const Triangle& tri = m_s.tris[c.t];
+            if (c.restClose || tangledPair(c.p, tri)) {
                 continue;
             }
-            const Triangle& tri = m_s.tris[c.t];
             double b[3];
-            const double d = pointTriangleDistance(m_s.x[c.p], m_s.x[tri[0]], m_s.x[tri[1]], m_s.x[tri[2]], b);
+            const double d =
+                pointTriangleDistance(m_s.x[c.p], m_s.x[tri[0]], m_s.x[tri[1]], m_s.x[tri[2]], b);
             const double h = thickness(c.p, tri[0]);
             if (first && d < 2.0 * h) {
                 m_s.nearVt.push_back(std::uint32_t(k));
@@ -301,7 +370,7 @@ public:
         const std::size_t eeCount = first ? m_s.ee.size() : m_s.nearEe.size();
         for (std::size_t k = 0; k < eeCount; ++k) {
             const EdgeEdge& c = first ? m_s.ee[k] : m_s.ee[m_s.nearEe[k]];
-            if (c.restClose) {
+            if (c.restClose || tangledPair(c)) {
                 continue;
             }
             double u = 0.0, v = 0.0;
@@ -343,12 +412,12 @@ public:
         int found = 0;
         for (const VertexTriangle& c : m_s.vt) {
             const Triangle& tri = m_s.tris[c.t];
-            if (all || mv[c.p] || mv[tri[0]] || mv[tri[1]] || mv[tri[2]]) {
+            if ((all || mv[c.p] || mv[tri[0]] || mv[tri[1]] || mv[tri[2]]) && !tangledPair(c.p, tri)) {
                 found += test({c.p, tri[0], tri[1], tri[2]}, true, respond);
             }
         }
         for (const EdgeEdge& c : m_s.ee) {
-            if (all || mv[c.a0] || mv[c.a1] || mv[c.b0] || mv[c.b1]) {
+            if ((all || mv[c.a0] || mv[c.a1] || mv[c.b0] || mv[c.b1]) && !tangledPair(c)) {
                 found += test({c.a0, c.a1, c.b0, c.b1}, false, respond);
             }
         }
@@ -357,6 +426,94 @@ public:
 
     /// The next continuous pass tests every candidate (the masses have all moved: a new step).
     void testEverything() { m_s.testAll = true; }
+
+    // ---- tangles --------------------------------------------------------------------------------------
+
+    /// A pair between two tangled parts of the cloth, or between a region passing back through the cloth
+    /// and anything else: left to the untangling, and out of the proximity and continuous tests meanwhile
+    /// (they would keep it crossed: they keep each pair on the side it began the step on).
+    bool tangledPair(std::uint32_t p, const Triangle& t) const {
+        if (!m_s.anyFlagged) {
+            return false;
+        }
+        const auto& f = m_s.flagged;
+        const auto& r = m_s.pushed;
+        return (f[p] && (f[t[0]] || f[t[1]] || f[t[2]])) || r[t[0]] != r[p] || r[t[1]] != r[p] ||
+               r[t[2]] != r[p];
+    }
+    bool tangledPair(const EdgeEdge& c) const {
+        if (!m_s.anyFlagged) {
+            return false;
+        }
+        const auto& f = m_s.flagged;
+        const auto& r = m_s.pushed;
+        return ((f[c.a0] || f[c.a1]) && (f[c.b0] || f[c.b1])) || r[c.a0] != r[c.b0] || r[c.a0] != r[c.b1] ||
+               r[c.a1] != r[c.b0] || r[c.a1] != r[c.b1];
+    }
+
+    /// Flags the corners of the tangled triangles.
+    void flag(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+        for (const auto& pair : pairs) {
+            for (std::uint32_t t : pair) {
+                for (std::uint32_t k : m_s.tris[t]) {
+                    m_s.flagged[k] = 1;
+                }
+            }
+            m_s.anyFlagged = true;
+        }
+    }
+
+    /// A few rounds of untangling (systems/cloth_untangle.h), each moving a free mass at most kUntangleStep
+    /// of its cloth's edge length: the regions that global intersection analysis finds on the wrong side
+    /// of the cloth move back through it, and where it finds none (a contour that cuts nothing off), the
+    /// contour's length is descended. Between rounds the crossed pairs are looked for again, so the
+    /// contour is followed as it moves across the mesh.
+    void untangle() {
+        if (m_s.tangled.empty()) {
+            return;
+        }
+        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+            m_s.held[i] = m_s.w[i] <= 0.0 || m_s.seated[i];
+        }
+        flag(m_s.tangled);
+        for (int it = 0; it < kUntangleIterations; ++it) {
+            // the crossings where the masses are now (the integrator has moved them since the list was made),
+            // those of the tangled parts only: a pair the integrator crossed elsewhere is for the contact
+            // tests to stop, not to untangle
+            findCrossings(m_s, m_s.x, m_s.found);
+            std::erase_if(m_s.found, [&](const std::array<std::uint32_t, 2>& p) { return !excused(m_s, p); });
+            if (m_s.found.empty()) {
+                break;
+            }
+            flag(m_s.found);
+            chooseRegions(m_s.x, m_s.tris, m_s.graph, m_s.found, m_s.held, m_s.choice);
+            if (m_s.choice.chosen > 0) {
+                for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+                    const Vec3& d = m_s.choice.direction[i];
+                    if (!(d == Vec3{})) {
+                        m_s.x[i] += d * (kUntangleStep * m_s.spacing[m_s.meshOf[i]]);
+                        m_s.moved[i] = 1;
+                        m_s.flagged[i] = 1;
+                        m_s.pushed[i] = m_s.choice.region[i] + 1;
+                    }
+                }
+            } else {
+                std::fill(m_s.grad.begin(), m_s.grad.end(), Vec3{});
+                if (!(contourGradient(m_s.x, m_s.tris, m_s.found, m_s.grad) > 0.0)) {
+                    break;
+                }
+                for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+                    const double g = length(m_s.grad[i]);
+                    if (m_s.held[i] || !(g > 0.0)) {
+                        continue;
+                    }
+                    const double step = kUntangleStep * m_s.spacing[m_s.meshOf[i]];
+                    m_s.x[i] -= m_s.grad[i] * (step / std::max(g, 1.0));
+                    m_s.moved[i] = 1;
+                }
+            }
+        }
+    }
 
     /// Inelastic projection (Harmon et al. 2008) of the contacts in m_s.hits together with those of earlier
     /// rounds: Gauss-Seidel over the constraints q . n >= gap until none is violated by more than a hundredth
@@ -491,7 +648,7 @@ private:
     /// The continuous test of one candidate over the step; 1 if it found a contact.
     int test(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle, bool respond) {
         const double h = thickness(idx[0], idx[2]);
-        const double reach = kDetectFraction * h;
+        double reach = kDetectFraction * h;
         Vec3 s[4], e[4];
         Aabb a, b;
         for (int k = 0; k < 4; ++k) {
@@ -523,10 +680,19 @@ private:
                 }
                 motion = length((e[1] - s[1]) - base) + second;
             }
+            // moving together (or not at all), the pair keeps its distance: nothing can cross in this step,
+            // however close it began (a pair frozen where it began touching would otherwise be found again
+            // and again)
+            if (!(motion > 0.0)) {
+                return 0;
+            }
             const double d0 = distance(s, vertexTriangle);
             if (d0 - motion > reach) {
                 return 0;
             }
+            // a pair that begins closer than the reach is in contact from the start; what matters is whether
+            // it comes closer still: half as close as it began (touching, whether it passes through)
+            reach = std::min(reach, 0.5 * d0);
             if (0.5 * (d0 + distance(e, vertexTriangle) - motion) > reach) {
                 return 0;
             }
@@ -560,8 +726,9 @@ private:
         double gap;
         contactNormal(st, r.toi, vertexTriangle, n, gap);
         const double end = dot(sum(m_s.x, st), n);
+        // it came close within the step, but ends apart on its own side
         if (end >= gap - 1e-9 * h && !r.capped) {
-            return 0; // it came close within the step, but ends apart on its own side
+            return 0;
         }
         if (!respond) {
             m_s.hits.push_back({st, n, gap});
@@ -603,7 +770,8 @@ private:
             return;
         }
         // they touch: the surfaces' own normal, turned towards the side they began on
-        n = vertexTriangle ? triangleNormal({st.i[1], st.i[2], st.i[3]}) : edgeNormal(st.i[0], st.i[1], st.i[2], st.i[3]);
+        n = vertexTriangle ? triangleNormal({st.i[1], st.i[2], st.i[3]})
+                           : edgeNormal(st.i[0], st.i[1], st.i[2], st.i[3]);
         const Vec3 q0 = sum(m_s.x0, st);
         if (dot(q0, n) < 0.0) {
             n = -n;
@@ -686,8 +854,8 @@ private:
                     continue;
                 }
                 // each edge pair once: ordered by the lower edge first
-                EdgeEdge pair = std::tie(a0, a1) < std::tie(b0, b1) ? EdgeEdge{a0, a1, b0, b1}
-                                                                    : EdgeEdge{b0, b1, a0, a1};
+                EdgeEdge pair =
+                    std::tie(a0, a1) < std::tie(b0, b1) ? EdgeEdge{a0, a1, b0, b1} : EdgeEdge{b0, b1, a0, a1};
                 pair.restClose = restClose(pair.a0, pair.a1, pair.b0, pair.b1);
                 m_s.ee.push_back(pair);
             }
@@ -719,11 +887,12 @@ private:
     /// listed when the layout was made; none in a sheet whose thickness is below 0.7 of its spacing).
     bool restClose(std::uint32_t p, std::uint32_t t) const {
         return !m_s.restVertexTriangle.empty() &&
-               std::binary_search(m_s.restVertexTriangle.begin(), m_s.restVertexTriangle.end(), VertexTriangle{p, t});
+               std::binary_search(m_s.restVertexTriangle.begin(), m_s.restVertexTriangle.end(),
+                                  VertexTriangle{p, t});
     }
     bool restClose(std::uint32_t a0, std::uint32_t a1, std::uint32_t b0, std::uint32_t b1) const {
-        return !m_s.restEdgeEdge.empty() && std::binary_search(m_s.restEdgeEdge.begin(), m_s.restEdgeEdge.end(),
-                                                               EdgeEdge{a0, a1, b0, b1});
+        return !m_s.restEdgeEdge.empty() &&
+               std::binary_search(m_s.restEdgeEdge.begin(), m_s.restEdgeEdge.end(), EdgeEdge{a0, a1, b0, b1});
     }
 
     ClothScratch& m_s;
@@ -783,8 +952,9 @@ void listRestPairs(ClothScratch& s) {
     }
     for (auto* list : {&s.restVertexTriangle}) {
         std::sort(list->begin(), list->end());
-        list->erase(std::unique(list->begin(), list->end(), [](auto& x, auto& y) { return !(x < y) && !(y < x); }),
-                    list->end());
+        list->erase(
+            std::unique(list->begin(), list->end(), [](auto& x, auto& y) { return !(x < y) && !(y < x); }),
+            list->end());
     }
     std::sort(s.restEdgeEdge.begin(), s.restEdgeEdge.end());
     s.restEdgeEdge.erase(std::unique(s.restEdgeEdge.begin(), s.restEdgeEdge.end(),
@@ -795,13 +965,13 @@ void listRestPairs(ClothScratch& s) {
 /// The self-colliding networks of this step, and the flat arrays laid out for them.
 bool prepare(World& world, ClothScratch& s) {
     s.meshes.clear();
-    world.view<const Name, SpringNetwork, ClothCollision>().each(
-        [&](Entity e, const Name& name, SpringNetwork& net, ClothCollision& cc) {
-            if (!net.selfCollision || net.frozen || net.triangles.empty() || cc.previous.size() != net.x.size()) {
-                return;
-            }
-            s.meshes.push_back({e, &net, &cc, &name, 0, 0});
-        });
+    world.view<const Name, SpringNetwork, ClothCollision>().each([&](Entity e, const Name& name,
+                                                                     SpringNetwork& net, ClothCollision& cc) {
+        if (!net.selfCollision || net.frozen || net.triangles.empty() || cc.previous.size() != net.x.size()) {
+            return;
+        }
+        s.meshes.push_back({e, &net, &cc, &name, 0, 0});
+    });
     if (s.meshes.empty()) {
         return false;
     }
@@ -858,7 +1028,22 @@ bool prepare(World& world, ClothScratch& s) {
         s.tree = Bvh{};
         s.xg.clear(); // the candidates were of another layout
         s.startChecked = false;
-        s.startCrossings.clear();
+        s.tangled.clear();
+        s.crossTree = Bvh{};
+        s.tangledSteps = 0;
+        s.graph.build(vertices, s.tris);
+        // each cloth's mean edge length at rest: the scale of the untangling's steps
+        s.spacing.assign(s.meshes.size(), 0.0);
+        for (std::uint32_t mi = 0; mi < s.meshes.size(); ++mi) {
+            const Mesh& m = s.meshes[mi];
+            double sum = 0.0;
+            for (const Triangle& t : m.net->triangles) {
+                for (int k = 0; k < 3; ++k) {
+                    sum += length(m.cc->rest[t[k]] - m.cc->rest[t[(k + 1) % 3]]);
+                }
+            }
+            s.spacing[mi] = sum / (3.0 * double(m.net->triangles.size()));
+        }
         listRestPairs(s);
     }
     s.x0.resize(vertices);
@@ -884,6 +1069,15 @@ bool prepare(World& world, ClothScratch& s) {
     }
     s.joined.assign(vertices, 0);
     s.constraints.clear();
+    s.flagged.assign(vertices, 0);
+    s.pushed.assign(vertices, 0);
+    s.held.assign(vertices, 0);
+    s.anyFlagged = false;
+    s.grad.resize(vertices);
+    s.kinematic = false;
+    for (std::uint32_t i = 0; i < vertices; ++i) {
+        s.kinematic = s.kinematic || (s.w[i] <= 0.0 && !(s.x[i] == s.x0[i]));
+    }
     return true;
 }
 
@@ -925,80 +1119,59 @@ int holdOnColliders(World& world, ClothScratch& s, bool pushOut) {
     return moved;
 }
 
-/// The exact audit: intersecting pairs of triangles that share no vertex. At the first step of a layout it
-/// notes the crossings the cloths began with (a scene that starts tangled: they are left as they are);
-/// afterwards, with `fail`, the first crossing that was not there at the start fails the run.
-std::size_t audit(World& world, const StepContext& ctx, ClothScratch& s, bool fail) {
-    for (std::size_t t = 0; t < s.tris.size(); ++t) {
-        Aabb b;
-        for (std::uint32_t k : s.tris[t]) {
-            b.add(s.x[k]);
-        }
-        s.boxes[t] = b;
-    }
-    if (s.tree.empty() || !s.tree.refit(s.boxes)) {
-        s.tree.build(s.boxes);
-    }
-    s.pairs.clear();
-    s.tree.selfPairs(s.pairs);
-    std::sort(s.pairs.begin(), s.pairs.end());
-    const bool first = !s.startChecked;
-    std::size_t crossings = 0;
-    for (const auto& [i, j] : s.pairs) {
-        const Triangle& a = s.tris[i];
-        const Triangle& b = s.tris[j];
-        bool share = false;
-        for (std::uint32_t k : a) {
-            share = share || k == b[0] || k == b[1] || k == b[2];
-        }
-        if (share || !trianglesIntersect(s.x[a[0]], s.x[a[1]], s.x[a[2]], s.x[b[0]], s.x[b[1]], s.x[b[2]])) {
+/// A cloth's name and a triangle's index within it, for messages.
+std::string triangleName(const ClothScratch& s, std::uint32_t t, const Mesh& from) {
+    const Mesh& m = s.meshes[s.meshOf[s.tris[t][0]]];
+    return "triangle " + std::to_string(t - m.triangleOffset) +
+           (&m == &from ? std::string() : " of '" + m.name->value + "'");
+}
+
+/// The crossings just found (s.found) that the step is to answer for. A pair between two parts that were
+/// being untangled (both triangles with a flagged corner) is excused: the contact tests were off for it.
+/// Any other is a crossing the contact did not prevent (a pinned or anchored mass dragged the cloth
+/// through, say): with `fail` (--check-contact) it fails the run, otherwise a note says it is being
+/// untangled; once per cloth. At a layout's first step (`start`), a note names each cloth that begins
+/// crossed.
+void report(World& world, const StepContext& ctx, ClothScratch& s, bool fail, bool start) {
+    RunReport& out = world.resource<RunReport>();
+    for (const auto& [i, j] : s.found) {
+        const Mesh& ma = s.meshes[s.meshOf[s.tris[i][0]]];
+        if (start || excused(s, {i, j}) || ma.cc->crossingsReported++ > 0) {
             continue;
         }
-        ++crossings;
-        if (first) {
-            s.startCrossings.push_back({i, j});
-            continue;
-        }
-        if (!fail || std::binary_search(s.startCrossings.begin(), s.startCrossings.end(), std::array{i, j})) {
-            continue;
-        }
-        const Mesh& ma = s.meshes[s.meshOf[a[0]]];
-        const Mesh& mb = s.meshes[s.meshOf[b[0]]];
-        if (ma.cc->crossingsReported++ > 0) {
-            continue;
-        }
-        const std::uint32_t la = i - ma.triangleOffset, lb = j - mb.triangleOffset;
+        const Mesh& mb = s.meshes[s.meshOf[s.tris[j][0]]];
         std::string what = "entity '" + ma.name->value + "' passed through " +
-                           (&ma == &mb ? std::string("itself") : "entity '" + mb.name->value + "'") + " at frame " +
-                           std::to_string(ctx.frame) + " (t = " + std::to_string(ctx.time) + " s): triangle " +
-                           std::to_string(la) + " crosses triangle " + std::to_string(lb) +
-                           " (--check-contact). Remedy: a smaller dt, or a larger thickness";
-        world.resource<RunReport>().failures.push_back(std::move(what));
-    }
-    if (first) {
-        s.startChecked = true;
-        // one note per cloth that begins crossed
-        for (const Mesh& m : s.meshes) {
-            std::size_t count = 0;
-            std::array<std::uint32_t, 2> example{};
-            for (const auto& [i, j] : s.startCrossings) {
-                if (s.meshOf[s.tris[i][0]] == s.meshOf[m.vertexOffset]) {
-                    example = count++ == 0 ? std::array{i - m.triangleOffset, j} : example;
-                }
-            }
-            if (count > 0) {
-                const Mesh& other = s.meshes[s.meshOf[s.tris[example[1]][0]]];
-                world.resource<RunReport>().notes.push_back(
-                    "entity '" + m.name->value + "' starts with " + std::to_string(count) +
-                    " pairs of triangles crossed (its triangle " + std::to_string(example[0]) + " through triangle " +
-                    std::to_string(example[1] - other.triangleOffset) +
-                    (&other == &m ? std::string(" of its own") : " of '" + other.name->value + "'") +
-                    "): contact keeps anything new from crossing but does not untangle what began crossed; "
-                    "move the cloths apart in the scene");
-            }
+                           (&ma == &mb ? std::string("itself") : "entity '" + mb.name->value + "'") +
+                           " at frame " + std::to_string(ctx.frame) + " (t = " + std::to_string(ctx.time) +
+                           " s): " + triangleName(s, i, ma) + " crosses " + triangleName(s, j, ma);
+        if (fail) {
+            out.failures.push_back(what + " (--check-contact). Remedy: a smaller dt, or a larger thickness; "
+                                          "pinned or anchored masses that move push through what they meet");
+        } else {
+            out.notes.push_back(what + "; it is being untangled");
         }
     }
-    return crossings;
+    if (!start) {
+        return;
+    }
+    // one note per cloth that begins crossed
+    for (const Mesh& m : s.meshes) {
+        std::size_t count = 0;
+        std::array<std::uint32_t, 2> example{};
+        for (const auto& pair : s.found) {
+            if (s.meshOf[s.tris[pair[0]][0]] == s.meshOf[m.vertexOffset]) {
+                example = count++ == 0 ? pair : example;
+            }
+        }
+        if (count > 0) {
+            out.notes.push_back(
+                "entity '" + m.name->value + "' starts with " + std::to_string(count) +
+                " pairs of triangles crossed (its " + triangleName(s, example[0], m) + " through " +
+                triangleName(s, example[1], m) +
+                "): they are untangled over the next steps (the part on the wrong side passes back), "
+                "with contact off between the crossed parts meanwhile");
+        }
+    }
 }
 
 } // namespace
@@ -1136,8 +1309,27 @@ void collideCloth(World& world, const StepContext& ctx) {
     fresh.steps = stats.steps + 1;
     fresh.stepsWithZones = stats.stepsWithZones;
     fresh.stepsHeldStill = stats.stepsHeldStill;
+    fresh.stepsTangled = stats.stepsTangled;
     stats = fresh;
+    // tangles: looked for where the step begins at a layout's first step, and when asked (a mass moved by
+    // hand); afterwards they are known from the end of the step before
+    bool look = !s.startChecked;
+    for (const Mesh& m : s.meshes) {
+        look = look || m.cc->recheck;
+        m.cc->recheck = false;
+    }
+    if (look) {
+        Stage stage(ctx, "cloth_collision.audit");
+        findCrossings(s, s.x0, s.found);
+        report(world, ctx, s, false, !s.startChecked);
+        s.startChecked = true;
+        s.tangled.swap(s.found);
+    }
     holdOnColliders(world, s, false);
+    if (!s.tangled.empty()) {
+        Stage stage(ctx, "cloth_collision.untangle");
+        contact.untangle();
+    }
     contact.refreshCandidates();
     contact.testEverything();
     stats.vertexTriangle = s.vt.size();
@@ -1176,19 +1368,36 @@ void collideCloth(World& world, const StepContext& ctx) {
     stats.stepsHeldStill += stats.heldStill;
     // back into the networks; the start of the next step is where this one ended
     for (const Mesh& m : s.meshes) {
-        std::copy(s.x.begin() + m.vertexOffset, s.x.begin() + m.vertexOffset + std::ptrdiff_t(m.net->x.size()),
-                  m.net->x.begin());
-        std::copy(s.v.begin() + m.vertexOffset, s.v.begin() + m.vertexOffset + std::ptrdiff_t(m.net->v.size()),
-                  m.net->v.begin());
+        std::copy(s.x.begin() + m.vertexOffset,
+                  s.x.begin() + m.vertexOffset + std::ptrdiff_t(m.net->x.size()), m.net->x.begin());
+        std::copy(s.v.begin() + m.vertexOffset,
+                  s.v.begin() + m.vertexOffset + std::ptrdiff_t(m.net->v.size()), m.net->v.begin());
         m.cc->previous = m.net->x;
     }
-    // the audit: once at a layout's first step (a scene that starts tangled is told so), then after every
-    // step with --check-contact
+    // the audit: after a step that began tangled or moved a pinned mass (what the contact cannot answer
+    // for), and after every step with --check-contact; what it finds is untangled from the next step on
     const RunChecks* checks = world.tryResource<RunChecks>();
     const bool checking = checks && checks->contact;
-    if (checking || !s.startChecked) {
+    if (checking || !s.tangled.empty() || s.kinematic) {
         Stage stage(ctx, "cloth_collision.audit");
-        stats.crossings = audit(world, ctx, s, checking);
+        findCrossings(s, s.x, s.found);
+        report(world, ctx, s, checking, false);
+        s.tangled.swap(s.found);
+        stats.crossings = s.tangled.size();
+    }
+    stats.tangled = s.tangled.size();
+    stats.stepsTangled += s.anyFlagged;
+    s.tangledSteps = s.anyFlagged ? s.tangledSteps + 1 : 0;
+    if (s.tangledSteps == kTangledPatience && !s.tangled.empty()) {
+        world.resource<RunReport>().notes.push_back(
+            "cloth contact: " + std::to_string(s.tangled.size()) +
+            " pairs of triangles are still crossed after " + std::to_string(kTangledPatience) +
+            " steps of untangling (entity '" + s.meshes[s.meshOf[s.tris[s.tangled[0][0]][0]]].name->value +
+            "'): the cloth may be pinned or held through itself");
+    }
+    if (ctx.profiler) {
+        ctx.profiler->count(ctx.profiler->counterSlot("cloth_collision.tangled_pairs"),
+                            double(stats.tangled));
     }
 }
 

@@ -26,7 +26,9 @@
 //             speed removed and their sliding slowed by friction (inelastic repulsion), a few passes;
 //   ccd       continuous tests of every candidate's motion over the step (systems/ccd.h: inclusion-based,
 //             conservative), each contact stopped a small gap short, a few passes, each testing again only
-//             the candidates whose masses the pass before moved;
+//             the candidates whose masses the pass before moved. A pair that begins closer than the distance
+//             looked for counts when it comes within half of where it began (so a pair resting in contact
+//             is not found at the start of every pass), and one that moves rigidly not at all;
 //   zones     the fail-safe, only while a continuous test still finds a contact: inelastic projection of
 //             all the remaining contacts together (Gauss-Seidel to convergence, constraints kept across
 //             rounds) while it makes progress, then rigid impact zones: the masses of each knot of contacts
@@ -36,9 +38,19 @@
 //             where the step began, round by round. Every loop has a cap; past the last, every free mass
 //             stays where the step began, which was clean. So no step ends with a crossing the step before
 //             it did not have;
-//   audit     once at the first step (a cloth that starts crossed gets a note naming it), and with
-//             `run --check-contact` after every step: an exact triangle-triangle test of every non-incident
-//             pair (CGAL's exact predicates); the first new crossing fails the run like a blow-up.
+//   untangle  only while a cloth is crossed already (loaded so, moved through itself by hand, or dragged
+//             through by a pinned or anchored mass, which contact cannot move): a few rounds a step of global
+//             intersection analysis (systems/cloth_untangle.h; Baraff, Witkin and Kass 2003): the part the
+//             crossing cuts off on the wrong side moves back through, a quarter of an edge a round; where
+//             nothing is cut off, intersection contour minimisation (Volino and Magnenat-Thalmann 2006).
+//             Meanwhile the pairs between the crossed parts, and between a part moving back and anything
+//             else, are left out of the proximity and continuous tests (they would hold it where it is);
+//   audit     an exact triangle-triangle test of every non-incident pair (CGAL's exact predicates): where
+//             the first step begins (a cloth that starts crossed gets a note naming it, and is untangled),
+//             where a step begins when ClothCollision::recheck asks, after a step that began tangled or
+//             moved a pinned mass, and with `run --check-contact` after every step, where a crossing
+//             between parts that were not being untangled fails the run like a blow-up. The profile
+//             counts the crossed pairs after each step (counter cloth_collision.tangled_pairs).
 // Colliders (the ground, static and moving bodies) take part as infinite-mass members: a mass within
 // 1.25 thicknesses of a collider surface is seated on it for the step (the cloth's own contacts cannot
 // push it into the collider, only along it), and a mass the cloth pushed into a collider anyway is put
@@ -61,9 +73,12 @@ namespace tumble {
 
 /// A self-colliding network's contact state, made when the cloth is loaded.
 struct ClothCollision {
-    std::vector<Vec3> rest;     ///< m, the positions the cloth was loaded with (the rest state of the pair rule)
-    std::vector<Vec3> previous; ///< m, where the masses were when the step began
+    std::vector<Vec3> rest; ///< m, the positions the cloth was loaded with (the rest state of the pair rule)
+    std::vector<Vec3> previous;          ///< m, where the masses were when the step began
     std::uint64_t crossingsReported = 0; ///< the audit's failures already said for this cloth
+    /// Set by whatever moves the masses outside the step (by hand, as a viewer dragging a mass directly
+    /// would): the next step looks for crossings where it begins, and untangles what it finds.
+    bool recheck = false;
 };
 
 /// What the last step of cloth contact did (a world resource, for the tests and the profile).
@@ -76,9 +91,11 @@ struct ClothContactStats {
     int freezeRounds = 0;      ///< rounds that froze the masses of the contacts left where the step began
     bool heldStill = false;    ///< every cap was reached: the free masses stayed where the step began
     std::size_t crossings = 0; ///< intersecting non-incident triangle pairs after the step (audit only)
+    std::size_t tangled = 0;   ///< crossed pairs known after the step (the audit's, or the tangles')
     std::uint64_t steps = 0;   ///< steps run
     std::uint64_t stepsWithZones = 0;
     std::uint64_t stepsHeldStill = 0;
+    std::uint64_t stepsTangled = 0; ///< steps that began with crossed pairs to untangle
 };
 
 /// One step of self- and cloth-cloth collision for every network that asks for it.
@@ -90,7 +107,8 @@ void registerClothCollisionSystem(Catalog& catalog);
 /// The collision state a self-colliding network starts with (its current positions as rest and start).
 ClothCollision makeClothCollision(const std::vector<Vec3>& x);
 
-/// Exact test: do the two triangles share a point? (CGAL's exact predicates; systems/triangle_intersection.cpp)
+/// Exact test: do the two triangles share a point? (CGAL's exact predicates;
+/// systems/triangle_intersection.cpp)
 bool trianglesIntersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
                         const Vec3& b2);
 

@@ -26,6 +26,26 @@ TEST(Profiler, SlotStatisticsFromKnownDurations) {
     EXPECT_NEAR(st.maxMs, 100.0, 1e-9);
 }
 
+TEST(Profiler, CountersKeepTheLargestTheLastAndHowOftenNonZero) {
+    Profiler p;
+    const int a = p.counterSlot("stage.pairs");
+    EXPECT_EQ(p.counterSlot("stage.pairs"), a);
+    const int b = p.counterSlot("stage.other");
+    EXPECT_NE(a, b);
+    for (double v : {0.0, 5.0, 2.0, 0.0}) {
+        p.count(a, v);
+    }
+    p.count(b, -3.0);
+    const std::vector<CounterStats> stats = p.counterStats();
+    ASSERT_EQ(stats.size(), 2u);
+    EXPECT_EQ(stats[a].name, "stage.pairs");
+    EXPECT_EQ(stats[a].samples, 4u);
+    EXPECT_EQ(stats[a].nonzero, 2u);
+    EXPECT_EQ(stats[a].max, 5.0);
+    EXPECT_EQ(stats[a].last, 0.0);
+    EXPECT_EQ(stats[b].max, -3.0); // the largest of what was reported, not of zero and it
+}
+
 TEST(Profiler, RingBufferKeepsTheMostRecentSamples) {
     Profiler p(10);
     const int s = p.addSlot("x", Phase::Fixed, false);
