@@ -218,34 +218,58 @@ void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef
 
 // ---- joints
 
-/// type = "anchor": a spring network's mass held by a 3D rigid body (a = the network, mass = its index,
-/// b = the body, pivot = the holding point, by default where the mass is).
+/// type = "anchor": a spring network's mass held by a 3D rigid body (a = the network, mass = its index, or a
+/// list of indices each held where it is; b = the body, pivot = the holding point of a single mass, by
+/// default where the mass is).
 void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
     const Entity netEntity = lookup(r, "a", true);
     SpringNetwork* net = world.tryGet<SpringNetwork>(netEntity);
     if (!net) {
         r.fail("a", "an anchor's 'a' must name a spring network (springs, rope, cloth or softbody)");
     }
-    const auto mass = static_cast<std::uint32_t>(r.integer("mass", 0, 0, std::int64_t(net->x.size()) - 1));
     if (!r.has("mass")) {
-        r.fail("mass", "an anchor needs 'mass', the index of the held mass");
+        r.fail("mass", "an anchor needs 'mass', the index of the held mass (or a list of them)");
+    }
+    std::vector<std::uint32_t> masses;
+    const toml::node* listed = r.node("mass");
+    if (listed && listed->is_array()) {
+        for (const toml::node& item : *r.array("mass", net->x.size())) {
+            const auto i = item.value<std::int64_t>();
+            if (!item.is_integer() || *i < 0 || static_cast<std::size_t>(*i) >= net->x.size()) {
+                r.failAt(item, "'mass' lists mass indices, each a whole number in [0, " +
+                                   std::to_string(net->x.size() - 1) + "]");
+            }
+            masses.push_back(static_cast<std::uint32_t>(*i));
+        }
+        if (masses.empty()) {
+            r.fail("mass", "an anchor's list of masses is empty");
+        }
+        if (r.has("pivot")) {
+            r.fail("pivot", "an anchor of a list of masses holds each where it is: no 'pivot'");
+        }
+    } else {
+        masses.push_back(
+            static_cast<std::uint32_t>(r.integer("mass", 0, 0, std::int64_t(net->x.size()) - 1)));
     }
     const Entity bodyEntity = lookup(r, "b", true);
     const RigidBody* body = world.tryGet<RigidBody>(bodyEntity);
     if (!body) {
         r.fail("b", "an anchor's 'b' must name a rigid_body (3D) that holds the mass");
     }
-    if (net->pinned[mass]) {
-        r.fail("mass", "mass " + std::to_string(mass) + " is already pinned" +
-                           (std::any_of(net->anchors.begin(), net->anchors.end(),
-                                        [&](const SpringAnchor& a) { return a.mass == mass; })
-                                ? " (anchored twice)"
-                                : "; a held mass must be free"));
+    for (std::uint32_t mass : masses) {
+        if (net->pinned[mass]) {
+            r.fail("mass", "mass " + std::to_string(mass) + " is already pinned" +
+                               (std::any_of(net->anchors.begin(), net->anchors.end(),
+                                            [&](const SpringAnchor& a) { return a.mass == mass; })
+                                    ? " (anchored twice)"
+                                    : "; a held mass must be free"));
+        }
+        const Vec3 at = net->x[mass];
+        const Vec3 pivot =
+            masses.size() == 1 ? vec(r.vector<3>("pivot", {at.x, at.y, at.z}, -kHuge, kHuge)) : at;
+        net->anchors.push_back({mass, bodyEntity, body->toLocal(pivot)});
+        net->pinned[mass] = 1;
     }
-    const Vec3 at = net->x[mass];
-    const Vec3 pivot = vec(r.vector<3>("pivot", {at.x, at.y, at.z}, -kHuge, kHuge));
-    net->anchors.push_back({mass, bodyEntity, body->toLocal(pivot)});
-    net->pinned[mass] = 1;
 }
 
 void loadJoint(TableReader& r, World& world, const SceneDef& scene, const EntityLookup& lookup) {

@@ -49,11 +49,22 @@ SpringNetwork buildCloth(const ClothDef& def) {
     SpringNetwork net;
     net.kind = NetworkKind::Cloth;
     const auto rows = static_cast<std::uint32_t>(def.rows), cols = static_cast<std::uint32_t>(def.cols);
-    auto at = [cols](std::uint32_t r, std::uint32_t c) { return r * cols + c; };
+    // a tube's columns wrap around: column cols is column 0 again
+    auto at = [cols](std::uint32_t r, std::uint32_t c) { return r * cols + c % cols; };
+    const std::uint32_t across = def.tube ? cols : cols - 1; // quads (and links) along a row
+    const double radius = def.size[0] / (2.0 * 3.14159265358979323846);
     for (std::uint32_t r = 0; r < rows; ++r) {
         for (std::uint32_t c = 0; c < cols; ++c) {
-            const double u = static_cast<double>(c) / (cols - 1) - 0.5;
             const double w = static_cast<double>(r) / (rows - 1) - 0.5;
+            if (def.tube) {
+                // seen from the end rows start at, counter-clockwise: the triangles face outwards
+                const double angle = 2.0 * 3.14159265358979323846 * c / cols;
+                const double a = radius * std::cos(angle), b = radius * std::sin(angle);
+                net.x.push_back(def.vertical ? def.centre + Vec3{a, -w * def.size[1], -b}
+                                             : def.centre + Vec3{a, b, w * def.size[1]});
+                continue;
+            }
+            const double u = static_cast<double>(c) / (cols - 1) - 0.5;
             net.x.push_back(def.vertical ? def.centre + Vec3{u * def.size[0], -w * def.size[1], 0.0}
                                          : def.centre + Vec3{u * def.size[0], 0.0, w * def.size[1]});
         }
@@ -63,7 +74,7 @@ SpringNetwork buildCloth(const ClothDef& def) {
     // scattered adds then never wait on each other
     for (std::uint32_t parity = 0; parity < 2; ++parity) { // stretch along rows: even columns, then odd
         for (std::uint32_t r = 0; r < rows; ++r) {
-            for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
+            for (std::uint32_t c = parity; c < across; c += 2) {
                 addLink(net, at(r, c), at(r, c + 1), def.stretch, def.damping);
             }
         }
@@ -76,19 +87,19 @@ SpringNetwork buildCloth(const ClothDef& def) {
         }
     }
     for (std::uint32_t r = 0; r + 1 < rows; ++r) { // shear: both diagonals of every quad
-        for (std::uint32_t c = 0; c + 1 < cols; ++c) {
+        for (std::uint32_t c = 0; c < across; ++c) {
             addLink(net, at(r, c), at(r + 1, c + 1), def.shear, def.damping);
         }
     }
     for (std::uint32_t r = 0; r + 1 < rows; ++r) {
-        for (std::uint32_t c = 0; c + 1 < cols; ++c) {
+        for (std::uint32_t c = 0; c < across; ++c) {
             addLink(net, at(r, c + 1), at(r + 1, c), def.shear, def.damping);
         }
     }
     if (def.bend > 0.0) { // bend: two apart, in four interleaved classes so neighbours do not touch
         for (std::uint32_t phase = 0; phase < 4; phase += 2) {
             for (std::uint32_t r = 0; r < rows; ++r) {
-                for (std::uint32_t c = 0; c + 2 < cols; ++c) {
+                for (std::uint32_t c = 0; c < (def.tube ? cols : cols - 2); ++c) {
                     if ((c % 4) / 2 == phase / 2) {
                         addLink(net, at(r, c), at(r, c + 2), def.bend, def.damping);
                     }
@@ -112,7 +123,7 @@ SpringNetwork buildCloth(const ClothDef& def) {
     for (std::uint32_t upper = 0; upper < 2; ++upper) {
         for (std::uint32_t parity = 0; parity < 2; ++parity) {
             for (std::uint32_t r = 0; r + 1 < rows; ++r) {
-                for (std::uint32_t c = parity; c + 1 < cols; c += 2) {
+                for (std::uint32_t c = parity; c < across; c += 2) {
                     const std::uint32_t q00 = at(r, c), q01 = at(r, c + 1), q10 = at(r + 1, c),
                                         q11 = at(r + 1, c + 1);
                     net.triangles.push_back(upper ? std::array{q00, q11, q01} : std::array{q00, q10, q11});

@@ -36,6 +36,9 @@ struct ClothDef {
     double shear = 500.0;                 ///< N/m, diagonals
     double bend = 50.0;                   ///< N/m, two apart along rows and columns
     double damping = 0.02;                ///< N s/m, on every spring
+    /// The columns close around into a tube of circumference size[0] (its axis along the rows: y for
+    /// "xy", z for "xz"); column c at angle 2 pi c / cols, the last column linked to the first.
+    bool tube = false;
     std::vector<std::uint32_t> pins;
 };
 

@@ -208,6 +208,10 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scen
     def.shear = r.number("shear", 500.0, 0.0, 1e12);
     def.bend = r.number("bend", 50.0, 0.0, 1e12);
     def.damping = r.number("damping", 0.02, 0.0, 1e9);
+    def.tube = r.boolean("tube", false);
+    if (def.tube && def.cols < 3) {
+        r.fail("cols", "a tube needs at least 3 columns around it");
+    }
     const int rows = def.rows, cols = def.cols;
     def.pins = readPins(
         r, std::size_t(rows) * cols, "top-corners",
@@ -237,7 +241,10 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scen
     }
     // masses closer than the thickness along the sheet would collide with their own neighbours' triangles
     // (left to the springs), and every vertex would face a crowd of triangles each step
-    const double spacing = std::min(def.size[0] / (cols - 1), def.size[1] / (rows - 1));
+    const double pi = 3.14159265358979323846;
+    const double around = def.tube ? def.size[0] / pi * std::sin(pi / cols) // a tube's chord
+                                   : def.size[0] / (cols - 1);
+    const double spacing = std::min(around, def.size[1] / (rows - 1));
     if (selfCollision && net.thickness > spacing) {
         r.fail("thickness", "self-collision needs a 'thickness' (" + std::to_string(net.thickness) +
                                 " m) no larger than the cloth's grid spacing (" + std::to_string(spacing) +

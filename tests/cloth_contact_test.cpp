@@ -214,7 +214,7 @@ TEST_P(SelfCollidingDemo, NeverCrossesAfterAnyStep) {
     EXPECT_LE(o.deepest, 1e-9);
 }
 
-INSTANTIATE_TEST_SUITE_P(Demos, SelfCollidingDemo, ::testing::Values("pile", "drape_sphere", "tablecloth"),
+INSTANTIATE_TEST_SUITE_P(Demos, SelfCollidingDemo, ::testing::Values("pile", "drape_sphere", "tablecloth", "twist"),
                          [](const auto& param) { return std::string(param.param); });
 
 } // namespace

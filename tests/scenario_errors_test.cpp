@@ -257,6 +257,22 @@ std::vector<BadCase> cases() {
          {},
          16,
          "already pinned"},
+        {"anchor_list_index_out_of_range",
+         kScene + kBob + kCrate + "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = [1, 5]\nb = \"crate\"\n",
+         {},
+         16,
+         "each a whole number in [0, 1]"},
+        {"anchor_empty_list",
+         kScene + kBob + kCrate + "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = []\nb = \"crate\"\n",
+         {},
+         16,
+         "is empty"},
+        {"anchor_list_with_a_pivot",
+         kScene + kBob + kCrate +
+             "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = [1]\npivot = [0, 1, 0]\nb = \"crate\"\n",
+         {},
+         17,
+         "no 'pivot'"},
         {"unpin_an_anchored_mass",
          kScene + kBob + kCrate +
              "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = 1\nb = \"crate\"\n"

@@ -169,6 +169,42 @@ TEST(ClothBuilder, FlatClothFacesUp) {
     }
 }
 
+TEST(ClothBuilder, TubeClosesAroundItsAxisAndFacesOut) {
+    ClothDef def;
+    def.rows = 5;
+    def.cols = 8;
+    def.size = {2.0, 1.5};
+    def.tube = true;
+    def.centre = {1.0, 2.0, 3.0};
+    const SpringNetwork net = buildCloth(def);
+    const double pi = 3.14159265358979323846, radius = 2.0 / (2.0 * pi);
+    ASSERT_EQ(net.x.size(), 40u);
+    for (const Vec3& p : net.x) {
+        EXPECT_NEAR(std::hypot(p.x - 1.0, p.z - 3.0), radius, 1e-12); // on the cylinder about y
+    }
+    // a quad for every pair of neighbouring columns, the last with the first included
+    EXPECT_EQ(net.triangles.size(), 2u * 4u * 8u);
+    double area = 0.0;
+    for (const auto& t : net.triangles) {
+        const Vec3 n = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]);
+        const Vec3 c = (net.x[t[0]] + net.x[t[1]] + net.x[t[2]]) * (1.0 / 3.0);
+        EXPECT_GT(dot(n, Vec3{c.x - 1.0, 0.0, c.z - 3.0}), 0.0) << "faces out";
+        area += 0.5 * length(n);
+    }
+    // the prism of 8 chords: 8 * chord * length
+    EXPECT_NEAR(area, 8.0 * 2.0 * radius * std::sin(pi / 8.0) * 1.5, 1e-9);
+    // the seam is linked like any other column: every mass has its two neighbours around, at the chord
+    int seam = 0;
+    for (const SpringLink& l : net.links) {
+        const bool around = l.a / 8 == l.b / 8 && (l.b % 8 == (l.a + 1) % 8 || l.a % 8 == (l.b + 1) % 8);
+        if (around) {
+            EXPECT_NEAR(l.rest, 2.0 * radius * std::sin(pi / 8.0), 1e-12);
+            seam += (l.a % 8 == 7 && l.b % 8 == 0) || (l.a % 8 == 0 && l.b % 8 == 7);
+        }
+    }
+    EXPECT_EQ(seam, 5); // one per row
+}
+
 } // namespace
 } // namespace tumble
 
