@@ -310,10 +310,11 @@ public:
             // of their inflations: with each inflated by its thickness h and drifting at most h / 2, that
             // covers the proximity (D up to the mean thickness) and the continuous tests (a twentieth of it).
             // (A quarter of h gathered twice a step in the pile demo: the contacts the continuous passes
-            // stop move masses farther than that)
+            // stop move masses farther than that.) The drift is measured as a distance, not per axis, so
+            // that `farApart` can count on it in any direction
             const double margin = 0.5 * mesh(i).net->thickness;
             for (const Vec3& d : {m_s.x[i] - m_s.xg[i], m_s.x0[i] - m_s.xg[i]}) {
-                if (std::abs(d.x) > margin || std::abs(d.y) > margin || std::abs(d.z) > margin) {
+                if (dot(d, d) > margin * margin) {
                     return true;
                 }
             }
@@ -667,19 +668,7 @@ private:
         // so never below (d0 + d1 - M) / 2. Most candidates (resting layers, neighbours in a sheet) end
         // here, before the inclusion search
         {
-            double motion = 0.0;
-            const Vec3 base = e[0] - s[0];
-            for (int k = 1; k < 4; ++k) {
-                motion = std::max(motion, length((e[k] - s[k]) - base));
-            }
-            if (!vertexTriangle) {
-                // two edges: the first edge's own stretch, plus the second edge's motion relative to it
-                double second = 0.0;
-                for (int k = 2; k < 4; ++k) {
-                    second = std::max(second, length((e[k] - s[k]) - base));
-                }
-                motion = length((e[1] - s[1]) - base) + second;
-            }
+            const double motion = relativeMotion(s, e, vertexTriangle);
             // moving together (or not at all), the pair keeps its distance: nothing can cross in this step,
             // however close it began (a pair frozen where it began touching would otherwise be found again
             // and again)
@@ -744,6 +733,25 @@ private:
             apply(m_s.v, st, n * -vn);
         }
         return 1;
+    }
+
+    /// The most the pair's points move relative to each other over the step (a bound on how fast its
+    /// distance can change).
+    static double relativeMotion(const Vec3 s[4], const Vec3 e[4], bool vertexTriangle) {
+        const Vec3 base = e[0] - s[0];
+        if (vertexTriangle) {
+            double motion = 0.0;
+            for (int k = 1; k < 4; ++k) {
+                motion = std::max(motion, length((e[k] - s[k]) - base));
+            }
+            return motion;
+        }
+        // two edges: the first edge's own stretch, plus the second edge's motion relative to it
+        double second = 0.0;
+        for (int k = 2; k < 4; ++k) {
+            second = std::max(second, length((e[k] - s[k]) - base));
+        }
+        return length((e[1] - s[1]) - base) + second;
     }
 
     static double distance(const Vec3 x[4], bool vertexTriangle) {
@@ -850,7 +858,8 @@ private:
                     continue;
                 }
                 const std::uint32_t b0 = std::min(b[j], b[(j + 1) % 3]), b1 = std::max(b[j], b[(j + 1) % 3]);
-                if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1 || !sweptOverlap({a0, a1}, {b0, b1})) {
+                if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1 || !sweptOverlap({a0, a1}, {b0, b1}) ||
+                    farApart({a0, a1, b0, b1}, false)) {
                     continue;
                 }
                 // each edge pair once: ordered by the lower edge first
@@ -869,10 +878,31 @@ private:
             if (m_s.vertexOwner[p] != ta || p == b[0] || p == b[1] || p == b[2]) {
                 continue;
             }
-            if (m_s.vertexBoxes[p].overlaps(m_s.boxes[tb])) {
+            if (m_s.vertexBoxes[p].overlaps(m_s.boxes[tb]) && !farApart({p, b[0], b[1], b[2]}, true)) {
                 m_s.vt.push_back({p, tb, restClose(p, tb)});
             }
         }
+    }
+
+    /// A pair that cannot come within its thickness in this step, nor while the list is kept: left out of
+    /// it. Over the step its distance stays above (d0 + d1 - M) / 2 (M the most its points move relative to
+    /// each other, as in `test`); while the list is kept, every mass stays within half its thickness of
+    /// where it was gathered (`candidatesStale`), so the distance stays above d1 less half of both sides'
+    /// thicknesses. Most pairs of a sheet's neighbouring cells are a cell apart, far more than the
+    /// thickness, and end here once per gathering rather than in every pass.
+    bool farApart(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle) const {
+        const double h = thickness(idx[0], idx[2]);
+        const double drift = 0.5 * (mesh(idx[0]).net->thickness + mesh(idx[2]).net->thickness);
+        Vec3 s[4], e[4];
+        for (int k = 0; k < 4; ++k) {
+            s[k] = m_s.x0[idx[k]];
+            e[k] = m_s.x[idx[k]];
+        }
+        const double d1 = distance(e, vertexTriangle);
+        if (d1 - drift <= h) {
+            return false;
+        }
+        return 0.5 * (distance(s, vertexTriangle) + d1 - relativeMotion(s, e, vertexTriangle)) > h;
     }
 
     /// Do the edges' swept boxes (inflated as every box is) overlap?
