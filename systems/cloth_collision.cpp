@@ -1404,11 +1404,13 @@ void collideCloth(World& world, const StepContext& ctx) {
                   s.v.begin() + m.vertexOffset + std::ptrdiff_t(m.net->v.size()), m.net->v.begin());
         m.cc->previous = m.net->x;
     }
-    // the audit: after a step that began tangled or moved a pinned mass (what the contact cannot answer
-    // for), and after every step with --check-contact; what it finds is untangled from the next step on
+    // the audit: after a step that began tangled, after one that moved a pinned mass and was held still
+    // (every cap reached: the free masses went back where they began, the pinned ones did not, and may
+    // have passed through them; a step whose last continuous pass found nothing crossed nothing), and
+    // after every step with --check-contact; what it finds is untangled from the next step on
     const RunChecks* checks = world.tryResource<RunChecks>();
     const bool checking = checks && checks->contact;
-    if (checking || !s.tangled.empty() || s.kinematic) {
+    if (checking || !s.tangled.empty() || (s.kinematic && stats.heldStill)) {
         Stage stage(ctx, "cloth_collision.audit");
         findCrossings(s, s.x, s.found);
         report(world, ctx, s, checking, false);

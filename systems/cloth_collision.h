@@ -48,7 +48,8 @@
 //   audit     an exact triangle-triangle test of every non-incident pair (CGAL's exact predicates): where
 //             the first step begins (a cloth that starts crossed gets a note naming it, and is untangled),
 //             where a step begins when ClothCollision::recheck asks, after a step that began tangled or
-//             moved a pinned mass, and with `run --check-contact` after every step, where a crossing
+//             that moved a pinned mass and had to be held still, and with `run --check-contact` after
+//             every step, where a crossing
 //             between parts that were not being untangled fails the run like a blow-up. The profile
 //             counts the crossed pairs after each step (counter cloth_collision.tangled_pairs).
 // Colliders (the ground, static and moving bodies) take part as infinite-mass members: a mass within
