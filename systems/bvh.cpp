@@ -100,6 +100,34 @@ void Bvh::pairsWith(const Bvh& other, std::vector<std::array<std::uint32_t, 2>>&
     }
 }
 
+void Bvh::overlapping(const Aabb& box, std::vector<std::uint32_t>& out) const {
+    if (m_nodes.empty()) {
+        return;
+    }
+    // the tree splits at the median, so its depth is about log2 of its size: a stack of 128 holds any tree
+    // that fits in memory (each node on it has its parent's sibling below it, at most one per level)
+    std::array<std::int32_t, 128> stack;
+    std::size_t top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const Node& n = m_nodes[std::size_t(stack[--top])];
+        if (!n.box.overlaps(box)) {
+            continue;
+        }
+        if (n.left < 0) {
+            for (std::uint32_t i = n.first; i < n.first + n.count; ++i) {
+                if (m_boxes[m_order[i]].overlaps(box)) {
+                    out.push_back(m_order[i]);
+                }
+            }
+            continue;
+        }
+        // the right child below the left on the stack: the left is opened first
+        stack[top++] = n.right;
+        stack[top++] = n.left;
+    }
+}
+
 void Bvh::descend(std::int32_t a, std::int32_t b, const Bvh& other, bool self,
                   std::vector<std::array<std::uint32_t, 2>>& out) const {
     const Node& na = m_nodes[std::size_t(a)];

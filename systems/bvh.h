@@ -60,6 +60,8 @@ public:
     void selfPairs(std::vector<std::array<std::uint32_t, 2>>& out) const;
     /// Pairs (i in this, j in other) whose boxes overlap.
     void pairsWith(const Bvh& other, std::vector<std::array<std::uint32_t, 2>>& out) const;
+    /// The triangles whose boxes overlap `box` (appended to out, in the tree's order).
+    void overlapping(const Aabb& box, std::vector<std::uint32_t>& out) const;
 
     bool empty() const { return m_nodes.empty(); }
     std::size_t nodeCount() const { return m_nodes.size(); }

@@ -27,6 +27,10 @@ constexpr int kContinuousPasses = 4;
 constexpr double kGapFraction = 0.1; ///< a stopped contact is left this fraction of the thickness apart
 /// the continuous tests look for approaches closer than this fraction of the thickness
 constexpr double kDetectFraction = 0.05;
+/// A mass may move this many of its thicknesses from where its candidate pairs were gathered before they
+/// are gathered again (the boxes are inflated to match: a larger margin gathers less often, with more pairs;
+/// physics p99 of the pile demo 7.4 ms a frame at a half, 8.4 at three quarters, 10.9 at one)
+constexpr double kDriftFraction = 0.5;
 constexpr double kRestingFraction = 1.25; ///< a mass this close to a collider (in thicknesses) rests on it
 constexpr int kProjectionRounds = 6;
 constexpr int kProjectionIterations = 64;
@@ -81,8 +85,12 @@ struct ClothScratch {
     std::vector<Entity> layout;       ///< the meshes the global arrays were laid out for
     std::vector<std::uint32_t> sizes; ///< and their vertex and triangle counts
     // per vertex
-    /// start, current, candidate (as the step left it), velocity, at gather
+    /// start, current, candidate (as the step left it), velocity, where its pairs were last gathered
     std::vector<Vec3> x0, x, xc, v, xg;
+    /// how far a mass may move from where it is now while the candidate pairs hold: its margin
+    /// (kDriftFraction of its thickness) plus how far it already is from where its pairs were gathered
+    std::vector<double> allow;
+    std::vector<std::uint64_t> gatheredAt; ///< the step its pairs were last gathered in
     std::vector<double> w;            ///< inverse mass for contacts: 0 when pinned
     std::vector<Vec3> seat;           ///< the outward normal of the collider a mass rests on
     std::vector<std::uint8_t> seated; ///< 1 when the mass rests on a collider
@@ -97,6 +105,9 @@ struct ClothScratch {
     Bvh tree;
     // per step
     std::vector<std::array<std::uint32_t, 2>> pairs;
+    std::vector<std::uint32_t> stale, near; ///< masses whose pairs are gathered again; a query's triangles
+    std::vector<std::uint8_t> staleMark, triangleMark;
+    std::uint64_t step = 0;
     std::vector<VertexTriangle> vt;
     std::vector<EdgeEdge> ee;
     std::vector<Constraint> constraints;
@@ -109,6 +120,10 @@ struct ClothScratch {
     /// pairs within one cloth closer than its thickness at rest
     std::vector<VertexTriangle> restVertexTriangle;
     std::vector<EdgeEdge> restEdgeEdge;
+    /// the primitive pairs of triangles that share a vertex: their boxes always overlap, so they are listed
+    /// once with the layout and measured at each gathering rather than found in the tree
+    std::vector<VertexTriangle> ringVt;
+    std::vector<EdgeEdge> ringEe;
     std::vector<double> spacing; ///< per mesh: its mean edge length at rest
     // tangles (cloth that is crossed already, untangled: systems/cloth_untangle.h)
     bool startChecked = false; ///< this layout's first step has been looked at for crossings
@@ -197,6 +212,53 @@ bool excused(const ClothScratch& s, const std::array<std::uint32_t, 2>& pair) {
     return flagged[0] && flagged[1];
 }
 
+/// Calls onVertexTriangle(p, t) and onEdgeEdge(EdgeEdge) for the primitive pairs of triangles ta and tb
+/// that the rule (cloth_collision.h) makes candidates, such that over all pairs of triangles each
+/// primitive pair comes once: a vertex is answered for by its first triangle (vertexOwner) and an edge by
+/// its first (edgeOwned), so (vertex, triangle) comes from (its owner, triangle) and (edge, edge) from
+/// (owner, owner).
+template <class OnVertexTriangle, class OnEdgeEdge>
+void forEachPrimitivePair(const ClothScratch& s, std::uint32_t ta, std::uint32_t tb,
+                          OnVertexTriangle&& onVertexTriangle, OnEdgeEdge&& onEdgeEdge) {
+    for (const auto& [from, to] : {std::pair{ta, tb}, std::pair{tb, ta}}) {
+        const Triangle& b = s.tris[to];
+        for (std::uint32_t p : s.tris[from]) {
+            if (s.vertexOwner[p] == from && p != b[0] && p != b[1] && p != b[2]) {
+                onVertexTriangle(p, to);
+            }
+        }
+    }
+    const Triangle& a = s.tris[ta];
+    const Triangle& b = s.tris[tb];
+    for (int i = 0; i < 3; ++i) {
+        if (!(s.edgeOwned[ta] & (1u << i))) {
+            continue;
+        }
+        const std::uint32_t a0 = std::min(a[i], a[(i + 1) % 3]), a1 = std::max(a[i], a[(i + 1) % 3]);
+        for (int j = 0; j < 3; ++j) {
+            if (!(s.edgeOwned[tb] & (1u << j))) {
+                continue;
+            }
+            const std::uint32_t b0 = std::min(b[j], b[(j + 1) % 3]), b1 = std::max(b[j], b[(j + 1) % 3]);
+            if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) {
+                continue;
+            }
+            // ordered by the lower edge first
+            onEdgeEdge(std::tie(a0, a1) < std::tie(b0, b1) ? EdgeEdge{a0, a1, b0, b1}
+                                                           : EdgeEdge{b0, b1, a0, a1});
+        }
+    }
+}
+
+bool shareVertex(const Triangle& a, const Triangle& b) {
+    for (std::uint32_t i : a) {
+        if (i == b[0] || i == b[1] || i == b[2]) {
+            return true;
+        }
+    }
+    return false;
+}
+
 class Contact {
 public:
     Contact(ClothScratch& s, const StepContext& ctx) : m_s(s), m_ctx(ctx) {}
@@ -262,14 +324,16 @@ public:
 
     // ---- refit and pairs ------------------------------------------------------------------------------
 
-    /// Boxes swept from the start of the step to now, inflated by the thickness; the tree refitted.
+    /// Boxes swept from the start of the step to now, inflated by half the thickness and the distance the
+    /// mass may still move (so that two primitives whose boxes do not overlap stay a thickness apart for as
+    /// long as the candidates are kept); the tree refitted.
     void refit() {
         m_s.vertexBoxes.resize(m_s.x.size());
         for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
             Aabb b;
             b.add(m_s.x0[i]);
             b.add(m_s.x[i]);
-            b.inflate(mesh(i).net->thickness);
+            b.inflate(0.5 * mesh(i).net->thickness + m_s.allow[i]);
             m_s.vertexBoxes[i] = b;
         }
         for (std::size_t t = 0; t < m_s.tris.size(); ++t) {
@@ -283,57 +347,123 @@ public:
         }
     }
 
-    /// The candidate pairs of the rule in the header, each once, in index order.
+    /// The candidate pairs of the rule in the header, each once: every mass's pairs gathered afresh.
     void gather() {
         m_s.vt.clear();
         m_s.ee.clear();
         m_s.pairs.clear();
         m_s.tree.selfPairs(m_s.pairs);
         for (const auto& [i, j] : m_s.pairs) {
-            addTrianglePair(i, j);
+            if (!shareVertex(m_s.tris[i], m_s.tris[j])) {
+                addTrianglePair(i, j, false);
+            }
         }
+        addRingPairs(false);
         // in the tree's order (fixed by the tree, so the same every run): sorting them into index order cost
         // a tenth of the pile demo's whole run, and the fail-safe no longer depends on the order to settle
-        m_s.xg = m_s.x;
     }
 
-    /// The candidates hold while no mass has moved, since they were gathered, farther than the margin its
-    /// box was inflated by (less the distance the continuous tests look for).
-    /// (Both ends of each mass's motion over the step are checked, so a list stays good from step to step
-    /// while the cloth hardly moves: a resting pile gathers once.)
-    bool candidatesStale() const {
-        if (m_s.xg.size() != m_s.x.size()) {
-            return true;
+    /// The pairs of the stale masses (m_s.staleMark) gathered again, the others kept: the pairs with a stale
+    /// mass in them are dropped, then every triangle with a stale corner is looked up in the tree and, of
+    /// the primitive pairs of each pair of triangles found, those with a stale mass are added. (Each
+    /// primitive pair comes from one pair of triangles, as in `gather`, the one of its vertex's or first
+    /// edge's owning triangle: a pair with a stale mass has a stale corner in one of those two triangles.)
+    void gatherAround() {
+        const auto& stale = m_s.staleMark;
+        std::erase_if(m_s.vt, [&](const VertexTriangle& c) {
+            const Triangle& t = m_s.tris[c.t];
+            return stale[c.p] || stale[t[0]] || stale[t[1]] || stale[t[2]];
+        });
+        std::erase_if(m_s.ee, [&](const EdgeEdge& c) {
+            return stale[c.a0] || stale[c.a1] || stale[c.b0] || stale[c.b1];
+        });
+        auto& marked = m_s.triangleMark;
+        marked.resize(m_s.tris.size());
+        for (std::size_t t = 0; t < m_s.tris.size(); ++t) {
+            const Triangle& tri = m_s.tris[t];
+            marked[t] = stale[tri[0]] || stale[tri[1]] || stale[tri[2]];
         }
-        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
-            // boxes of two primitives a distance D apart overlap while D plus their drifts is at most the sum
-            // of their inflations: with each inflated by its thickness h and drifting at most h / 2, that
-            // covers the proximity (D up to the mean thickness) and the continuous tests (a twentieth of it).
-            // (A quarter of h gathered twice a step in the pile demo: the contacts the continuous passes
-            // stop move masses farther than that.) The drift is measured as a distance, not per axis, so
-            // that `farApart` can count on it in any direction
-            const double margin = 0.5 * mesh(i).net->thickness;
-            for (const Vec3& d : {m_s.x[i] - m_s.xg[i], m_s.x0[i] - m_s.xg[i]}) {
-                if (dot(d, d) > margin * margin) {
-                    return true;
+        for (std::uint32_t ta = 0; ta < m_s.tris.size(); ++ta) {
+            if (!marked[ta]) {
+                continue;
+            }
+            m_s.near.clear();
+            m_s.tree.overlapping(m_s.boxes[ta], m_s.near);
+            for (std::uint32_t tb : m_s.near) {
+                // a pair of two marked triangles is found from both: taken from the lower
+                if (tb != ta && !(marked[tb] && tb < ta) && !shareVertex(m_s.tris[ta], m_s.tris[tb])) {
+                    addTrianglePair(ta, tb, true);
                 }
             }
         }
-        return false;
+        addRingPairs(true);
     }
 
-    /// Refits and gathers again when the candidates no longer cover where the masses are.
+    /// The masses that have moved farther than their margin from where their pairs were gathered, at either
+    /// end of the step (where the step began is covered by the boxes swept over the step when they were
+    /// gathered in this one), into m_s.stale and m_s.staleMark; their count.
+    /// Boxes of two primitives a distance D apart overlap while D is at most half of each one's thickness
+    /// plus how far each may move (`refit`), so primitives left out stay a thickness apart, and `farApart`
+    /// keeps the same bound for the pairs it leaves out. (A mass pressed into a layer by its springs moves
+    /// farther than its margin every step before the contacts put it back: only its own pairs are gathered
+    /// again.) The drift is measured as a distance, not per axis, so that `farApart` can count on it in any
+    /// direction.
+    std::size_t findStale() {
+        m_s.stale.clear();
+        m_s.staleMark.assign(m_s.x.size(), 0);
+        const bool fresh = m_s.xg.size() != m_s.x.size();
+        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+            bool moved = fresh;
+            if (!moved) {
+                const double margin = kDriftFraction * mesh(i).net->thickness;
+                const Vec3 d = m_s.x[i] - m_s.xg[i];
+                const Vec3 d0 = m_s.x0[i] - m_s.xg[i];
+                moved = dot(d, d) > margin * margin ||
+                        (m_s.gatheredAt[i] != m_s.step && dot(d0, d0) > margin * margin);
+            }
+            if (moved) {
+                m_s.stale.push_back(i);
+                m_s.staleMark[i] = 1;
+            }
+        }
+        return m_s.stale.size();
+    }
+
+    /// Gathers again when the candidates no longer cover where the masses are: every pair when many masses
+    /// have moved out of their margins (or the layout is new), else the pairs of those masses alone.
     void refreshCandidates() {
-        if (!candidatesStale()) {
+        if (findStale() == 0) {
             return;
+        }
+        const bool all = m_s.xg.size() != m_s.x.size() || 16 * m_s.stale.size() > m_s.x.size();
+        if (all) {
+            m_s.xg = m_s.x;
+            m_s.gatheredAt.assign(m_s.x.size(), m_s.step);
+        } else {
+            for (std::uint32_t i : m_s.stale) {
+                m_s.xg[i] = m_s.x[i];
+                m_s.gatheredAt[i] = m_s.step;
+            }
+        }
+        m_s.allow.resize(m_s.x.size());
+        for (std::uint32_t i = 0; i < m_s.x.size(); ++i) {
+            m_s.allow[i] = kDriftFraction * mesh(i).net->thickness + length(m_s.x[i] - m_s.xg[i]);
         }
         {
             Stage stage(m_ctx, "cloth_collision.refit");
             refit();
         }
         Stage stage(m_ctx, "cloth_collision.pairs");
-        gather();
-        m_s.testAll = true;
+        if (all) {
+            gather();
+            m_s.testAll = true;
+        } else {
+            gatherAround();
+            // the pairs new to the list have a stale mass: the next continuous pass tests them
+            for (std::uint32_t i : m_s.stale) {
+                m_s.moved[i] = 1;
+            }
+        }
     }
 
     // ---- proximity ------------------------------------------------------------------------------------
@@ -843,56 +973,66 @@ private:
         }
     }
 
-    void addTrianglePair(std::uint32_t ta, std::uint32_t tb) {
-        addVertexTriangles(ta, tb);
-        addVertexTriangles(tb, ta);
-        const Triangle& a = m_s.tris[ta];
-        const Triangle& b = m_s.tris[tb];
-        for (int i = 0; i < 3; ++i) {
-            if (!(m_s.edgeOwned[ta] & (1u << i))) {
-                continue;
-            }
-            const std::uint32_t a0 = std::min(a[i], a[(i + 1) % 3]), a1 = std::max(a[i], a[(i + 1) % 3]);
-            for (int j = 0; j < 3; ++j) {
-                if (!(m_s.edgeOwned[tb] & (1u << j))) {
-                    continue;
-                }
-                const std::uint32_t b0 = std::min(b[j], b[(j + 1) % 3]), b1 = std::max(b[j], b[(j + 1) % 3]);
-                if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1 || !sweptOverlap({a0, a1}, {b0, b1}) ||
-                    farApart({a0, a1, b0, b1}, false)) {
-                    continue;
-                }
-                // each edge pair once: ordered by the lower edge first
-                EdgeEdge pair =
-                    std::tie(a0, a1) < std::tie(b0, b1) ? EdgeEdge{a0, a1, b0, b1} : EdgeEdge{b0, b1, a0, a1};
-                pair.restClose = restClose(pair.a0, pair.a1, pair.b0, pair.b1);
-                m_s.ee.push_back(pair);
-            }
+    /// The primitive pairs of two triangles that are candidates (with `staleOnly`, those with a stale mass).
+    void addTrianglePair(std::uint32_t ta, std::uint32_t tb, bool staleOnly) {
+        forEachPrimitivePair(
+            m_s, ta, tb,
+            [&](std::uint32_t p, std::uint32_t t) {
+                considerVertexTriangle({p, t}, staleOnly);
+            },
+            [&](const EdgeEdge& c) { considerEdgeEdge(c, staleOnly); });
+    }
+
+    /// The primitive pairs of triangles that share a vertex (listed with the layout, m_s.ringVt and ringEe)
+    /// that are candidates.
+    void addRingPairs(bool staleOnly) {
+        for (const VertexTriangle& c : m_s.ringVt) {
+            considerVertexTriangle(c, staleOnly);
+        }
+        for (const EdgeEdge& c : m_s.ringEe) {
+            considerEdgeEdge(c, staleOnly);
         }
     }
 
-    /// The vertices of triangle ta (those it answers for) against triangle tb.
-    void addVertexTriangles(std::uint32_t ta, std::uint32_t tb) {
-        const Triangle& b = m_s.tris[tb];
-        for (std::uint32_t p : m_s.tris[ta]) {
-            if (m_s.vertexOwner[p] != ta || p == b[0] || p == b[1] || p == b[2]) {
-                continue;
-            }
-            if (m_s.vertexBoxes[p].overlaps(m_s.boxes[tb]) && !farApart({p, b[0], b[1], b[2]}, true)) {
-                m_s.vt.push_back({p, tb, restClose(p, tb)});
-            }
+    /// Adds the pair to the candidates unless it is far apart (or, with `staleOnly`, has no stale mass).
+    void considerVertexTriangle(VertexTriangle c, bool staleOnly) {
+        const Triangle& b = m_s.tris[c.t];
+        const auto& stale = m_s.staleMark;
+        if ((staleOnly && !(stale[c.p] || stale[b[0]] || stale[b[1]] || stale[b[2]])) ||
+            !m_s.vertexBoxes[c.p].overlaps(m_s.boxes[c.t]) || farApart({c.p, b[0], b[1], b[2]}, true)) {
+            return;
         }
+        c.restClose = restClose(c.p, c.t);
+        m_s.vt.push_back(c);
+    }
+    void considerEdgeEdge(EdgeEdge c, bool staleOnly) {
+        const auto& stale = m_s.staleMark;
+        if ((staleOnly && !(stale[c.a0] || stale[c.a1] || stale[c.b0] || stale[c.b1])) ||
+            !sweptOverlap({c.a0, c.a1}, {c.b0, c.b1}) || farApart({c.a0, c.a1, c.b0, c.b1}, false)) {
+            return;
+        }
+        c.restClose = restClose(c.a0, c.a1, c.b0, c.b1);
+        m_s.ee.push_back(c);
     }
 
     /// A pair that cannot come within its thickness in this step, nor while the list is kept: left out of
-    /// it. Over the step its distance stays above (d0 + d1 - M) / 2 (M the most its points move relative to
-    /// each other, as in `test`); while the list is kept, every mass stays within half its thickness of
-    /// where it was gathered (`candidatesStale`), so the distance stays above d1 less half of both sides'
-    /// thicknesses. Most pairs of a sheet's neighbouring cells are a cell apart, far more than the
-    /// thickness, and end here once per gathering rather than in every pass.
+    /// it. While the list is kept every mass stays within m_s.allow of where it is now (`findStale`), so the
+    /// pair's distance stays above d1 less the drift (the most either side may move, summed). Over the rest
+    /// of this step, from where it began to wherever within the drift of here it ends, the distance stays
+    /// above (d0 + d1 - M) / 2 less the drift (M the most its points move relative to each other, as in
+    /// `test`: the distance is at least max(d0 - M t, d1 - M (1 - t)) at time t, and moving the ends by the
+    /// drift moves each point of the path at most that), which must exceed the reach of the continuous
+    /// tests. Most pairs of a sheet's neighbouring cells are a cell apart, far more than the thickness, and
+    /// end here once per gathering rather than in every pass.
     bool farApart(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle) const {
         const double h = thickness(idx[0], idx[2]);
-        const double drift = 0.5 * (mesh(idx[0]).net->thickness + mesh(idx[2]).net->thickness);
+        const int split = vertexTriangle ? 1 : 2;
+        double driftA = 0.0, driftB = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            double& side = k < split ? driftA : driftB;
+            side = std::max(side, m_s.allow[idx[k]]);
+        }
+        const double drift = driftA + driftB;
         Vec3 s[4], e[4];
         for (int k = 0; k < 4; ++k) {
             s[k] = m_s.x0[idx[k]];
@@ -902,7 +1042,8 @@ private:
         if (d1 - drift <= h) {
             return false;
         }
-        return 0.5 * (distance(s, vertexTriangle) + d1 - relativeMotion(s, e, vertexTriangle)) > h;
+        return 0.5 * (distance(s, vertexTriangle) + d1 - relativeMotion(s, e, vertexTriangle)) - drift >
+               kDetectFraction * h;
     }
 
     /// Do the edges' swept boxes (inflated as every box is) overlap?
@@ -992,6 +1133,47 @@ void listRestPairs(ClothScratch& s) {
                          s.restEdgeEdge.end());
 }
 
+/// The primitive pairs of every two triangles that share a vertex (s.ringVt, s.ringEe), in the order of
+/// the pairs of triangles.
+void listRingPairs(ClothScratch& s) {
+    const auto vertices = std::uint32_t(s.meshOf.size());
+    std::vector<std::uint32_t> start(vertices + 1, 0), around(3 * s.tris.size());
+    for (const Triangle& t : s.tris) {
+        for (std::uint32_t k : t) {
+            ++start[k + 1];
+        }
+    }
+    for (std::uint32_t i = 0; i < vertices; ++i) {
+        start[i + 1] += start[i];
+    }
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::uint32_t t = 0; t < s.tris.size(); ++t) {
+        for (std::uint32_t k : s.tris[t]) {
+            around[fill[k]++] = t;
+        }
+    }
+    std::vector<std::array<std::uint32_t, 2>> pairs;
+    for (std::uint32_t i = 0; i < vertices; ++i) {
+        for (std::uint32_t a = start[i]; a < start[i + 1]; ++a) {
+            for (std::uint32_t b = a + 1; b < start[i + 1]; ++b) {
+                pairs.push_back({std::min(around[a], around[b]), std::max(around[a], around[b])});
+            }
+        }
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    s.ringVt.clear();
+    s.ringEe.clear();
+    for (const auto& [ta, tb] : pairs) {
+        forEachPrimitivePair(
+            s, ta, tb,
+            [&](std::uint32_t p, std::uint32_t t) {
+                s.ringVt.push_back({p, t});
+            },
+            [&](const EdgeEdge& c) { s.ringEe.push_back(c); });
+    }
+}
+
 /// The self-colliding networks of this step, and the flat arrays laid out for them.
 bool prepare(World& world, ClothScratch& s) {
     s.meshes.clear();
@@ -1075,6 +1257,7 @@ bool prepare(World& world, ClothScratch& s) {
             s.spacing[mi] = sum / (3.0 * double(m.net->triangles.size()));
         }
         listRestPairs(s);
+        listRingPairs(s);
     }
     s.x0.resize(vertices);
     s.x.resize(vertices);
@@ -1282,6 +1465,28 @@ double pointTriangleDistance(const Vec3& p, const Vec3& a, const Vec3& b, const 
     return done(1 - v - x, v, x);
 }
 
+ClothCandidates clothCandidates(World& world) {
+    ClothCandidates out;
+    const ClothScratch* s = world.tryResource<ClothScratch>();
+    if (!s || s->xg.size() != s->x.size() || s->x.empty()) {
+        return out;
+    }
+    out.triangles = s->tris;
+    out.gathered = s->xg;
+    for (std::uint32_t i = 0; i < s->x.size(); ++i) {
+        const double h = s->meshes[s->meshOf[i]].net->thickness;
+        out.thickness.push_back(h);
+        out.margin.push_back(kDriftFraction * h);
+    }
+    for (const VertexTriangle& c : s->vt) {
+        out.vertexTriangle.push_back({c.p, c.t});
+    }
+    for (const EdgeEdge& c : s->ee) {
+        out.edgeEdge.push_back({c.a0, c.a1, c.b0, c.b1});
+    }
+    return out;
+}
+
 ClothCollision makeClothCollision(const std::vector<Vec3>& x) {
     ClothCollision cc;
     cc.rest = x;
@@ -1355,6 +1560,7 @@ void collideCloth(World& world, const StepContext& ctx) {
         s.startChecked = true;
         s.tangled.swap(s.found);
     }
+    ++s.step;
     holdOnColliders(world, s, false);
     if (!s.tangled.empty()) {
         Stage stage(ctx, "cloth_collision.untangle");

@@ -21,7 +21,11 @@
 //             start of the step to where the integrator (and the colliders) left it, inflated by its
 //             cloth's thickness; refitted, rebuilt when loose;
 //   pairs     vertex-triangle and edge-edge candidates, each once, by the rule above; kept from step to
-//             step while no mass has moved half the thickness from where they were gathered;
+//             step while no mass has moved half its thickness from where its pairs were gathered (the boxes
+//             are inflated to match, and a pair left out is one that cannot come within the thickness
+//             meanwhile); when only a few masses have, only their pairs are gathered again (their triangles
+//             looked up in the tree); the pairs of triangles that share a vertex, whose boxes always
+//             overlap, are listed once with the layout and only measured;
 //   proximity pairs closer than the thickness at the end of the step pushed apart to it, their approach
 //             speed removed and their sliding slowed by friction (inelastic repulsion), a few passes;
 //   ccd       continuous tests of every candidate's motion over the step (systems/ccd.h: inclusion-based,
@@ -67,6 +71,7 @@
 #include "engine/world.h"
 #include "systems/bvh.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -107,6 +112,21 @@ void registerClothCollisionSystem(Catalog& catalog);
 
 /// The collision state a self-colliding network starts with (its current positions as rest and start).
 ClothCollision makeClothCollision(const std::vector<Vec3>& x);
+
+/// For the tests: the candidate pairs cloth contact keeps between steps, over all self-colliding cloths laid
+/// out as one (vertex and triangle indices global, each cloth's after the one before it), with what they
+/// promise: every pair of the rule (see the header) that is closer than its thickness while each of its
+/// masses is within `margin` of `gathered` is in the lists.
+struct ClothCandidates {
+    std::vector<Triangle> triangles;
+    std::vector<Vec3> gathered; ///< m, where each mass was when its pairs were last gathered
+    std::vector<double> margin; ///< m, how far from there the promise holds
+    std::vector<double> thickness;
+    std::vector<std::array<std::uint32_t, 2>> vertexTriangle; ///< (vertex, triangle)
+    std::vector<std::array<std::uint32_t, 4>> edgeEdge;       ///< (a0, a1, b0, b1)
+};
+/// Empty when no self-colliding cloth has stepped yet.
+ClothCandidates clothCandidates(World& world);
 
 /// Exact test: do the two triangles share a point? (CGAL's exact predicates;
 /// systems/triangle_intersection.cpp)
