@@ -1,6 +1,7 @@
 #include "engine/simulation.h"
 
 #include "engine/dump.h"
+#include "engine/float_mode.h"
 #include "engine/json.h"
 #include "engine/run_report.h"
 
@@ -76,6 +77,7 @@ void Simulation::beginFrame() {
 }
 
 void Simulation::runStep() {
+    const FlushDenormals flush; // see engine/float_mode.h
     m_ctx.step = m_step;
     m_ctx.time = static_cast<double>(m_step) * m_scenario.scene.dt;
     m_schedule.run(Phase::Input, m_world, m_ctx);
