@@ -167,10 +167,40 @@ Vec3 rotateBy(const Vec3& a, const Vec3& r) {
     return r * c + cross(k, r) * s + k * (dot(k, r) * (1.0 - c));
 }
 
+bool shareVertex(const Triangle& a, const Triangle& b) {
+    for (std::uint32_t i : a) {
+        if (i == b[0] || i == b[1] || i == b[2]) {
+            return true;
+        }
+    }
+    return false;
+}
+
+/// Does the untangling answer for a pair of primitives, each side of which has a corner of a tangled
+/// triangle (flagged) or a mass of a region moved back through the cloth (pushed), or neither? Between two
+/// tangled parts, and between a region moving back and a tangled part (the triangles it passes through).
+/// A region moving back keeps its contacts with everything else, its own masses and other cloths included.
+bool untangledPair(bool flaggedA, bool pushedA, bool flaggedB, bool pushedB) {
+    return (flaggedA || pushedA) && (flaggedB || pushedB) && (flaggedA || flaggedB);
+}
+
+/// A crossed pair of triangles the untangling answers for (see untangledPair), not a failure of contact.
+bool excused(const ClothScratch& s, const std::array<std::uint32_t, 2>& pair) {
+    bool flagged[2] = {false, false}, pushed[2] = {false, false};
+    for (int k = 0; k < 2; ++k) {
+        for (std::uint32_t v : s.tris[pair[k]]) {
+            flagged[k] = flagged[k] || s.flagged[v];
+            pushed[k] = pushed[k] || s.pushed[v] != 0;
+        }
+    }
+    return untangledPair(flagged[0], pushed[0], flagged[1], pushed[1]);
+}
+
 /// The pairs of triangles that share no vertex and intersect at positions x (an exact test: CGAL's
-/// predicates), sorted, into out.
+/// predicates), sorted, into out; with `excusedOnly`, those the untangling answers for alone (the others
+/// are left out before the exact test).
 void findCrossings(ClothScratch& s, const std::vector<Vec3>& x,
-                   std::vector<std::array<std::uint32_t, 2>>& out) {
+                   std::vector<std::array<std::uint32_t, 2>>& out, bool excusedOnly = false) {
     s.crossBoxes.resize(s.tris.size());
     for (std::size_t t = 0; t < s.tris.size(); ++t) {
         Aabb b;
@@ -187,29 +217,10 @@ void findCrossings(ClothScratch& s, const std::vector<Vec3>& x,
     std::erase_if(out, [&](const std::array<std::uint32_t, 2>& p) {
         const Triangle& a = s.tris[p[0]];
         const Triangle& b = s.tris[p[1]];
-        for (std::uint32_t k : a) {
-            if (k == b[0] || k == b[1] || k == b[2]) {
-                return true;
-            }
-        }
-        return !trianglesIntersect(x[a[0]], x[a[1]], x[a[2]], x[b[0]], x[b[1]], x[b[2]]);
+        return shareVertex(a, b) || (excusedOnly && !excused(s, p)) ||
+               !trianglesIntersect(x[a[0]], x[a[1]], x[a[2]], x[b[0]], x[b[1]], x[b[2]]);
     });
     std::sort(out.begin(), out.end());
-}
-
-/// A crossed pair the untangling answers for: between two parts that were tangled this step (each
-/// triangle with a flagged corner), or with a region that was moved back through the cloth.
-bool excused(const ClothScratch& s, const std::array<std::uint32_t, 2>& pair) {
-    bool flagged[2] = {false, false};
-    for (int k = 0; k < 2; ++k) {
-        for (std::uint32_t v : s.tris[pair[k]]) {
-            if (s.pushed[v]) {
-                return true;
-            }
-            flagged[k] = flagged[k] || s.flagged[v];
-        }
-    }
-    return flagged[0] && flagged[1];
 }
 
 /// Calls onVertexTriangle(p, t) and onEdgeEdge(EdgeEdge) for the primitive pairs of triangles ta and tb
@@ -248,15 +259,6 @@ void forEachPrimitivePair(const ClothScratch& s, std::uint32_t ta, std::uint32_t
                                                            : EdgeEdge{b0, b1, a0, a1});
         }
     }
-}
-
-bool shareVertex(const Triangle& a, const Triangle& b) {
-    for (std::uint32_t i : a) {
-        if (i == b[0] || i == b[1] || i == b[2]) {
-            return true;
-        }
-    }
-    return false;
 }
 
 class Contact {
@@ -560,17 +562,15 @@ public:
 
     // ---- tangles --------------------------------------------------------------------------------------
 
-    /// A pair between two tangled parts of the cloth, or between a region passing back through the cloth
-    /// and anything else: left to the untangling, and out of the proximity and continuous tests meanwhile
-    /// (they would keep it crossed: they keep each pair on the side it began the step on).
+    /// A pair the untangling answers for (`untangledPair`): out of the proximity and continuous tests
+    /// meanwhile (they would keep it crossed: they keep each pair on the side it began the step on).
     bool tangledPair(std::uint32_t p, const Triangle& t) const {
         if (!m_s.anyFlagged) {
             return false;
         }
         const auto& f = m_s.flagged;
         const auto& r = m_s.pushed;
-        return (f[p] && (f[t[0]] || f[t[1]] || f[t[2]])) || r[t[0]] != r[p] || r[t[1]] != r[p] ||
-               r[t[2]] != r[p];
+        return untangledPair(f[p], r[p] != 0, f[t[0]] || f[t[1]] || f[t[2]], r[t[0]] || r[t[1]] || r[t[2]]);
     }
     bool tangledPair(const EdgeEdge& c) const {
         if (!m_s.anyFlagged) {
@@ -578,8 +578,7 @@ public:
         }
         const auto& f = m_s.flagged;
         const auto& r = m_s.pushed;
-        return ((f[c.a0] || f[c.a1]) && (f[c.b0] || f[c.b1])) || r[c.a0] != r[c.b0] || r[c.a0] != r[c.b1] ||
-               r[c.a1] != r[c.b0] || r[c.a1] != r[c.b1];
+        return untangledPair(f[c.a0] || f[c.a1], r[c.a0] || r[c.a1], f[c.b0] || f[c.b1], r[c.b0] || r[c.b1]);
     }
 
     /// Flags the corners of the tangled triangles.
@@ -611,8 +610,7 @@ public:
             // the crossings where the masses are now (the integrator has moved them since the list was made),
             // those of the tangled parts only: a pair the integrator crossed elsewhere is for the contact
             // tests to stop, not to untangle
-            findCrossings(m_s, m_s.x, m_s.found);
-            std::erase_if(m_s.found, [&](const std::array<std::uint32_t, 2>& p) { return !excused(m_s, p); });
+            findCrossings(m_s, m_s.x, m_s.found, true);
             if (m_s.found.empty()) {
                 break;
             }
@@ -624,7 +622,6 @@ public:
                     if (!(d == Vec3{})) {
                         m_s.x[i] += d * (kUntangleStep * m_s.spacing[m_s.meshOf[i]]);
                         m_s.moved[i] = 1;
-                        m_s.flagged[i] = 1;
                         m_s.pushed[i] = m_s.choice.region[i] + 1;
                     }
                 }
@@ -1349,7 +1346,10 @@ void report(World& world, const StepContext& ctx, ClothScratch& s, bool fail, bo
     RunReport& out = world.resource<RunReport>();
     for (const auto& [i, j] : s.found) {
         const Mesh& ma = s.meshes[s.meshOf[s.tris[i][0]]];
-        if (start || excused(s, {i, j}) || ma.cc->crossingsReported++ > 0) {
+        // a failure per cloth, and a note per cloth: a note (a mass moved through by hand) does not use up
+        // the failure a later crossing must report
+        std::uint64_t& said = fail ? ma.cc->crossingsReported : ma.cc->crossingNotes;
+        if (start || excused(s, {i, j}) || said++ > 0) {
             continue;
         }
         const Mesh& mb = s.meshes[s.meshOf[s.tris[j][0]]];

@@ -47,8 +47,9 @@
 //             intersection analysis (systems/cloth_untangle.h; Baraff, Witkin and Kass 2003): the part the
 //             crossing cuts off on the wrong side moves back through, a quarter of an edge a round; where
 //             nothing is cut off, intersection contour minimisation (Volino and Magnenat-Thalmann 2006).
-//             Meanwhile the pairs between the crossed parts, and between a part moving back and anything
-//             else, are left out of the proximity and continuous tests (they would hold it where it is);
+//             Meanwhile the pairs between the crossed parts, and between a part moving back and the crossed
+//             parts, are left out of the proximity and continuous tests (they would hold it where it is);
+//             a part moving back keeps its contacts with everything else;
 //   audit     an exact triangle-triangle test of every non-incident pair (CGAL's exact predicates): where
 //             the first step begins (a cloth that starts crossed gets a note naming it, and is untangled),
 //             where a step begins when ClothCollision::recheck asks, after a step that began tangled or
@@ -82,6 +83,7 @@ struct ClothCollision {
     std::vector<Vec3> rest; ///< m, the positions the cloth was loaded with (the rest state of the pair rule)
     std::vector<Vec3> previous;          ///< m, where the masses were when the step began
     std::uint64_t crossingsReported = 0; ///< the audit's failures already said for this cloth
+    std::uint64_t crossingNotes = 0;     ///< and its notes (crossings being untangled)
     /// Set by whatever moves the masses outside the step (by hand, as a viewer dragging a mass directly
     /// would): the next step looks for crossings where it begins, and untangles what it finds.
     bool recheck = false;

@@ -199,6 +199,7 @@ void chooseRegions(const std::vector<Vec3>& x, const std::vector<Triangle>& tris
     // each cut edge nominates the smaller region either side of it, to pass back through its triangle
     const std::size_t regions = out.size.size();
     out.sum.assign(regions, Vec3{});
+    out.votes.assign(regions, 0);
     out.candidate.assign(regions, 0);
     out.across.clear();
     for (const auto& c : out.cutList) {
@@ -218,7 +219,9 @@ void chooseRegions(const std::vector<Vec3>& x, const std::vector<Triangle>& tris
             continue;
         }
         const double side = dot(normal, x[first ? c.a : c.b] - x[t[0]]);
-        out.sum[r] += normal * ((side > 0.0 ? -1.0 : 1.0) / len);
+        // a point exactly in the plane counts as on its positive side, as in `pierce`
+        out.sum[r] += normal * ((side >= 0.0 ? -1.0 : 1.0) / len);
+        ++out.votes[r];
         out.candidate[r] = 1;
         for (std::uint32_t k : t) {
             if (out.region[k] != r) {
@@ -246,7 +249,9 @@ void chooseRegions(const std::vector<Vec3>& x, const std::vector<Triangle>& tris
         for (auto it = lo; it != out.across.end() && (*it)[0] == r; ++it) {
             conflict = conflict || out.accepted[(*it)[1]];
         }
-        if (!conflict && length(out.sum[r]) > 0.0) {
+        // the cuts must agree on the way back: directions that nearly cancel (a region cut off across a
+        // curved wall, the cuts' normals facing apart) give none, and contour minimisation is left to it
+        if (!conflict && length(out.sum[r]) >= 0.5 * double(out.votes[r])) {
             out.accepted[r] = 1;
             ++out.chosen;
         }

@@ -50,8 +50,9 @@ struct VertexGraph {
 /// a cut edge, the smaller (a region holding a held mass counts as endless: it cannot move) is the one to
 /// pass back through that edge's triangle, towards the triangle's far side from it. Two regions that would
 /// pass through each other (each across a cut of the other's) are not both chosen: the smaller goes first.
-/// A contour that cuts nothing off (a slit: it ends inside both surfaces) chooses nothing; contour
-/// minimisation handles it.
+/// A contour that cuts nothing off (a slit: it ends inside both surfaces) chooses nothing, nor does a
+/// region whose cuts disagree on the way back (their directions summing to less than half their number);
+/// contour minimisation handles them.
 struct RegionChoice {
     std::vector<std::uint32_t> region; ///< per vertex: its region
     std::vector<Vec3> direction;       ///< per vertex: the unit direction its region moves in, or zero
@@ -63,7 +64,8 @@ struct RegionChoice {
         std::uint32_t a, b, t; ///< the edge and the triangle it passes through
     };
     std::vector<Cut> cutList;
-    std::vector<Vec3> sum; ///< per region: the summed directions of its cuts
+    std::vector<Vec3> sum;            ///< per region: the summed directions of its cuts
+    std::vector<std::uint32_t> votes; ///< and their number
     std::vector<std::uint8_t> candidate, accepted;
     std::vector<std::array<std::uint32_t, 2>> across; ///< (region, region on the far side of one of its cuts)
 };

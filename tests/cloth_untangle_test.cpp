@@ -198,6 +198,43 @@ void twoSheets(double lift) {
     EXPECT_TRUE(counted);
 }
 
+TEST(ChooseRegions, ARowLyingInTheSheetGoesBackThroughIt) {
+    // A strip hangs through a sheet with its top row exactly in the sheet's plane. A point in the plane
+    // counts as on the positive side, so the strip's edges from that row down are the cuts, and the row
+    // alone (smaller than the rest of the strip) is the region to pass back through: towards the negative
+    // side, where the rest of the strip is. (Sent the other way, the row went up a quarter of an edge and
+    // came back the next round, over and over.)
+    std::vector<Vec3> x = {{-1.0, 0.0, -1.0}, {1.0, 0.0, -1.0}, {1.0, 0.0, 1.0}, {-1.0, 0.0, 1.0}};
+    std::vector<Triangle> tris = {{0, 1, 2}, {0, 2, 3}};
+    const Vec3 n = cross(x[2] - x[0], x[3] - x[0]) * (1.0 / length(cross(x[2] - x[0], x[3] - x[0])));
+    for (int row = 0; row < 4; ++row) {
+        for (int col = 0; col < 3; ++col) {
+            x.push_back(Vec3{-0.2 + 0.2 * col, 0.0, 0.5} - n * (0.1 * row));
+        }
+    }
+    auto at = [](int row, int col) { return std::uint32_t(4 + 3 * row + col); };
+    std::vector<std::array<std::uint32_t, 2>> crossed;
+    for (int row = 0; row < 3; ++row) {
+        for (int col = 0; col < 2; ++col) {
+            tris.push_back({at(row, col), at(row + 1, col), at(row, col + 1)});
+            tris.push_back({at(row, col + 1), at(row + 1, col), at(row + 1, col + 1)});
+            if (row == 0) {
+                crossed.push_back({1, std::uint32_t(tris.size() - 2)});
+                crossed.push_back({1, std::uint32_t(tris.size() - 1)});
+            }
+        }
+    }
+    VertexGraph graph;
+    graph.build(x.size(), tris);
+    RegionChoice choice;
+    chooseRegions(x, tris, graph, crossed, std::vector<std::uint8_t>(x.size(), 0), choice);
+    ASSERT_EQ(choice.chosen, 1u);
+    for (int col = 0; col < 3; ++col) {
+        EXPECT_NEAR(dot(choice.direction[at(0, col)], n), -1.0, 1e-12) << "column " << col;
+        EXPECT_EQ(choice.direction[at(1, col)], Vec3{}); // the rest of the strip stays
+    }
+}
+
 TEST(Untangle, TwoSheetsPassingThroughEachOther) {
     twoSheets(0.0031);
 }
