@@ -130,8 +130,8 @@ struct ClothScratch {
     std::vector<std::array<std::uint32_t, 2>> tangled; ///< crossed pairs of triangles, sorted, as last found
     std::vector<std::array<std::uint32_t, 2>> found;   ///< a search for them in progress
     std::vector<std::uint8_t> flagged; ///< per vertex: a corner of a tangled triangle this step
-    /// per vertex: 1 + the region it was moved back through the cloth with (this step), or 0
-    std::vector<std::uint32_t> pushed;
+    /// per vertex: moved back through the cloth by the untangling this step
+    std::vector<std::uint8_t> pushed;
     std::vector<std::uint8_t> held; ///< per vertex: pinned, or resting on a collider (not to be moved)
     bool anyFlagged = false;
     VertexGraph graph; ///< the meshes' edges, for the regions
@@ -190,7 +190,7 @@ bool excused(const ClothScratch& s, const std::array<std::uint32_t, 2>& pair) {
     for (int k = 0; k < 2; ++k) {
         for (std::uint32_t v : s.tris[pair[k]]) {
             flagged[k] = flagged[k] || s.flagged[v];
-            pushed[k] = pushed[k] || s.pushed[v] != 0;
+            pushed[k] = pushed[k] || s.pushed[v];
         }
     }
     return untangledPair(flagged[0], pushed[0], flagged[1], pushed[1]);
@@ -570,7 +570,7 @@ public:
         }
         const auto& f = m_s.flagged;
         const auto& r = m_s.pushed;
-        return untangledPair(f[p], r[p] != 0, f[t[0]] || f[t[1]] || f[t[2]], r[t[0]] || r[t[1]] || r[t[2]]);
+        return untangledPair(f[p], r[p], f[t[0]] || f[t[1]] || f[t[2]], r[t[0]] || r[t[1]] || r[t[2]]);
     }
     bool tangledPair(const EdgeEdge& c) const {
         if (!m_s.anyFlagged) {
@@ -622,7 +622,7 @@ public:
                     if (!(d == Vec3{})) {
                         m_s.x[i] += d * (kUntangleStep * m_s.spacing[m_s.meshOf[i]]);
                         m_s.moved[i] = 1;
-                        m_s.pushed[i] = m_s.choice.region[i] + 1;
+                        m_s.pushed[i] = 1;
                     }
                 }
             } else {
