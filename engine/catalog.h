@@ -54,11 +54,13 @@ using EntityLookup = std::function<Entity(TableReader& reader, std::string_view 
 using JointLoader =
     std::function<void(TableReader& reader, World& world, const SceneDef& scene, const EntityLookup& lookup)>;
 
-/// A system and the phase it runs in; systems of a phase run in registration order.
+/// A system: its name (which labels the profile and trace), the phase it runs in, its function and what
+/// it reads and writes. Systems of a phase run in the order they were added (systems/builtin.cpp's table).
 struct SystemEntry {
-    Phase phase;
     std::string name;
+    Phase phase;
     SystemFn fn;
+    Access access;
 };
 
 /// Everything the systems library registers; see the header comment.
@@ -68,9 +70,7 @@ public:
     void addState(StateCodec codec) { m_states.push_back(std::move(codec)); }
     void addEventAction(EventAction action) { m_actions.push_back(std::move(action)); }
     void setJointLoader(JointLoader loader) { m_jointLoader = std::move(loader); }
-    void addSystem(Phase phase, std::string name, SystemFn fn) {
-        m_systems.push_back({phase, std::move(name), std::move(fn)});
-    }
+    void addSystem(SystemEntry system) { m_systems.push_back(std::move(system)); }
 
     /// A state codec for component type T from a dump and a hash function of the component.
     template <class T>

@@ -10,7 +10,7 @@ Schedule::Schedule(Profiler& profiler) : m_profiler(profiler) {
     }
 }
 
-void Schedule::add(Phase phase, std::string name, SystemFn fn) {
+void Schedule::add(Phase phase, std::string name, SystemFn fn, Access access) {
     for (const auto& entries : m_phases) {
         for (const Entry& e : entries) {
             if (e.name == name) {
@@ -19,13 +19,14 @@ void Schedule::add(Phase phase, std::string name, SystemFn fn) {
         }
     }
     const int slot = m_profiler.addSlot(name, phase, false);
-    m_phases[int(phase)].push_back(Entry{std::move(name), std::move(fn), slot});
+    m_phases[int(phase)].push_back(Entry{std::move(name), std::move(fn), std::move(access), slot});
 }
 
 void Schedule::run(Phase phase, World& world, const StepContext& ctx) {
     TUMBLE_PROFILE_SCOPE(m_profiler, m_phaseSlots[int(phase)]);
     for (Entry& e : m_phases[int(phase)]) {
         TUMBLE_PROFILE_SCOPE(m_profiler, e.slot);
+        World::AccessScope declared(world, e.name, e.access);
         e.fn(world, ctx);
     }
     world.commands().flush();

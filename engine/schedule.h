@@ -2,8 +2,10 @@
 // The schedule: systems registered into phases, run in the order they were registered. Order within a
 // phase is stated by registration (systems/builtin.cpp lists the fixed phase in DESIGN.md's order), never
 // by systems naming each other. Each system and each phase runs inside a profiler timer, and the world's
-// queued structural changes are applied when a phase ends.
+// queued structural changes are applied when a phase ends. While a system runs, the world holds its declared
+// access (engine/access.h) and refuses anything undeclared.
 
+#include "engine/access.h"
 #include "engine/phase.h"
 #include "engine/profiler.h"
 #include "engine/step_context.h"
@@ -23,8 +25,9 @@ class Schedule {
 public:
     explicit Schedule(Profiler& profiler);
 
-    /// Register a system at the end of a phase. Names must be unique; they label the profile and trace.
-    void add(Phase phase, std::string name, SystemFn fn);
+    /// Register a system at the end of a phase, with what it reads and writes. Names must be unique; they
+    /// label the profile and trace.
+    void add(Phase phase, std::string name, SystemFn fn, Access access);
 
     /// Run every system of the phase in order, then apply the world's queued changes.
     void run(Phase phase, World& world, const StepContext& ctx);
@@ -36,6 +39,7 @@ private:
     struct Entry {
         std::string name;
         SystemFn fn;
+        Access access;
         int slot; ///< profiler slot
     };
     Profiler& m_profiler;

@@ -36,10 +36,12 @@ Simulation::Simulation(const Catalog& catalog, const std::string& path, std::str
     m_world.setResource<SceneDef>(m_scenario.scene);
     m_world.setResource<RunReport>();
     m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0, {}});
-    m_schedule.add(Phase::Input, "events",
-                   [&catalog](World& w, const StepContext& ctx) { applyEvents(w, ctx, catalog); });
+    // the event actions touch whatever the catalog's systems registered them for: nothing runs beside
+    m_schedule.add(
+        Phase::Input, "events",
+        [&catalog](World& w, const StepContext& ctx) { applyEvents(w, ctx, catalog); }, Access::everything());
     for (const SystemEntry& s : catalog.systems()) {
-        m_schedule.add(s.phase, s.name, s.fn);
+        m_schedule.add(s.phase, s.name, s.fn, s.access);
     }
 }
 

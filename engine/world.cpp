@@ -99,4 +99,10 @@ void World::failGet(Entity e) const {
     throw StaleEntityError("world: entity " + std::to_string(e.index) + " has no component of that type");
 }
 
+void World::failAccess(const std::string& type, bool write) const {
+    throw AccessError("system '" + *m_system + "' " + (write ? "writes " : "reads ") + type +
+                      " without declaring it; add it to the system's " + (write ? "Writes" : "Reads") +
+                      " in systems/builtin.cpp");
+}
+
 } // namespace tumble

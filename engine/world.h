@@ -9,10 +9,13 @@
 // - A view joins one to three component types: it walks the smallest set and probes the others. A const
 //   type in the view's list hands out const references (read-only access, visible in the signature).
 // - Resources are world-wide singletons keyed by type (the Bullet world, the random streams, ...).
+// - While a system runs, the world holds what the system declared it reads and writes (engine/access.h) and
+//   refuses views, gets and resources over anything else.
 // - While a view iterates, the component sets must not change shape. Structural changes made inside a
 //   phase go through commands(): they are queued and applied, in the order they were made, when the
 //   schedule flushes at the end of the phase. Changing a set during iteration directly is an error.
 
+#include "engine/access.h"
 #include "engine/entity.h"
 
 #include <cstdint>
@@ -36,21 +39,6 @@ struct StaleEntityError : std::logic_error {
 struct WorldLockedError : std::logic_error {
     using std::logic_error::logic_error;
 };
-
-namespace detail {
-inline std::uint32_t nextTypeId() {
-    static std::uint32_t counter = 0;
-    return counter++;
-}
-/// A small dense id per C++ type, used to index the world's tables.
-template <class T>
-std::uint32_t typeId() {
-    // `const T` would get an id, and so a table, of its own; const belongs in view type lists only
-    static_assert(!std::is_const_v<T> && !std::is_volatile_v<T>, "name the component type without const");
-    static const std::uint32_t id = nextTypeId();
-    return id;
-}
-} // namespace detail
 
 /// Type-erased face of a component set, so that destroying an entity can clear it from every set.
 class PoolBase {
@@ -195,17 +183,20 @@ public:
     /// True if the entity is alive and has the component.
     template <class T>
     bool has(Entity e) const {
+        checkAccess<T>(false);
         const auto* p = findPool<T>();
         return alive(e) && p && p->contains(e.index);
     }
     /// The component, or nullptr if the entity lacks it or is not alive.
     template <class T>
     T* tryGet(Entity e) {
+        checkAccess<T>(false);
         auto* p = findPool<T>();
         return alive(e) && p && p->contains(e.index) ? &p->at(e.index) : nullptr;
     }
     template <class T>
     const T* tryGet(Entity e) const {
+        checkAccess<T>(false);
         const auto* p = findPool<T>();
         return alive(e) && p && p->contains(e.index) ? &p->at(e.index) : nullptr;
     }
@@ -227,7 +218,7 @@ public:
         return *c;
     }
 
-    /// The packed set of a component type (created empty on first use).
+    /// The packed set of a component type (created empty on first use); unchecked (views check first).
     template <class T>
     Pool<T>& pool() {
         const auto id = detail::typeId<T>();
@@ -242,11 +233,13 @@ public:
     /// The packed set of a component type, or nullptr if none was ever made.
     template <class T>
     const Pool<T>* findPool() const {
+        checkAccess<T>(false);
         const auto id = detail::typeId<T>();
         return id < m_pools.size() ? static_cast<const Pool<T>*>(m_pools[id].get()) : nullptr;
     }
     template <class T>
     Pool<T>* findPool() {
+        checkAccess<T>(false);
         const auto id = detail::typeId<T>();
         return id < m_pools.size() ? static_cast<Pool<T>*>(m_pools[id].get()) : nullptr;
     }
@@ -260,6 +253,7 @@ public:
     /// Sets (or replaces) the world's one resource of type T.
     template <class T, class... Args>
     T& setResource(Args&&... args) {
+        checkAccess<T>(true);
         const auto id = detail::typeId<T>();
         if (id >= m_resources.size()) {
             m_resources.resize(std::size_t(id) + 1);
@@ -272,6 +266,7 @@ public:
     /// The resource of type T, or nullptr if it was never set.
     template <class T>
     T* tryResource() {
+        checkAccess<T>(false);
         const auto id = detail::typeId<T>();
         return id < m_resources.size() ? static_cast<T*>(m_resources[id].get()) : nullptr;
     }
@@ -283,6 +278,30 @@ public:
             throw std::logic_error("world has no resource of the requested type");
         }
         return *r;
+    }
+
+    // ---- declared access
+
+    /// Holds a running system's name and declaration (both outlive the scope); see the header comment.
+    struct AccessScope {
+        AccessScope(World& w, const std::string& system, const Access& access) : world(w) {
+            world.m_system = &system;
+            world.m_access = &access;
+        }
+        ~AccessScope() {
+            world.m_access = nullptr;
+            world.m_system = nullptr;
+        }
+        AccessScope(const AccessScope&) = delete;
+        AccessScope& operator=(const AccessScope&) = delete;
+        World& world;
+    };
+    /// Throws AccessError if a system is running and did not declare T (written, when write is true).
+    template <class T>
+    void checkAccess(bool write) const {
+        if (m_access && !m_access->allows(detail::typeId<T>(), write)) {
+            failAccess(detail::typeName<T>(), write);
+        }
     }
 
     // ---- deferred changes
@@ -303,6 +322,7 @@ private:
     void requireAlive(Entity e, const char* what) const;
     void requireUnlocked(const char* what) const;
     [[noreturn]] void failGet(Entity e) const;
+    [[noreturn]] void failAccess(const std::string& type, bool write) const;
 
     std::vector<std::uint32_t> m_generations; ///< current generation of each slot
     std::vector<std::uint8_t> m_alive;        ///< 1 while the slot holds a living entity
@@ -312,6 +332,8 @@ private:
     std::vector<std::unique_ptr<PoolBase>> m_pools; ///< by detail::typeId
     std::vector<std::shared_ptr<void>> m_resources; ///< by detail::typeId
     Commands m_commands;
+    const Access* m_access = nullptr;      ///< the running system's declaration, if a system runs
+    const std::string* m_system = nullptr; ///< its name
 };
 
 template <class T>
@@ -332,7 +354,9 @@ class View {
     static_assert(sizeof...(Ts) >= 1 && sizeof...(Ts) <= 3, "a view joins one to three component types");
 
 public:
-    explicit View(World& world) : m_world(world), m_pools(world.pool<std::remove_const_t<Ts>>()...) {}
+    explicit View(World& world)
+        : m_world(world), m_pools((world.checkAccess<std::remove_const_t<Ts>>(!std::is_const_v<Ts>),
+                                   world.pool<std::remove_const_t<Ts>>())...) {}
 
     template <class Fn>
     void each(Fn&& fn) {

@@ -4,9 +4,14 @@
 
 #include "engine/catalog.h"
 
+#include <vector>
+
 namespace tumble {
 
-/// Registers the built-in components, state codecs, event actions and systems, in run order.
+/// Every built-in system in run order, with what it reads and writes: the one table of systems.
+const std::vector<SystemEntry>& builtinSystems();
+
+/// Registers the built-in components, state codecs and event actions, then builtinSystems() in order.
 void registerBuiltinSystems(Catalog& catalog);
 
 } // namespace tumble

@@ -79,6 +79,8 @@ struct Constraint {
     double gap;
 };
 
+} // namespace
+
 /// The per-step arrays, kept from step to step so that a step allocates nothing once they have grown.
 struct ClothScratch {
     std::vector<Mesh> meshes;
@@ -142,6 +144,8 @@ struct ClothScratch {
     std::uint64_t tangledSteps = 0; ///< steps in a row that began tangled
     bool kinematic = false;         ///< a pinned (or anchored) mass moved during this step
 };
+
+namespace {
 
 /// Times a stage of the system into its own profile entry.
 class Stage {
@@ -1637,10 +1641,6 @@ void collideCloth(World& world, const StepContext& ctx) {
         ctx.profiler->count(ctx.profiler->counterSlot("cloth_collision.tangled_pairs"),
                             double(stats.tangled));
     }
-}
-
-void registerClothCollisionSystem(Catalog& catalog) {
-    catalog.addSystem(Phase::Fixed, "cloth_collision", collideCloth);
 }
 
 } // namespace tumble

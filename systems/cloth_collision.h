@@ -109,8 +109,8 @@ struct ClothContactStats {
 /// One step of self- and cloth-cloth collision for every network that asks for it.
 void collideCloth(World& world, const StepContext& ctx);
 
-/// Registers the system.
-void registerClothCollisionSystem(Catalog& catalog);
+/// The scratch the system keeps between steps (a world resource, private to it).
+struct ClothScratch;
 
 /// The collision state a self-colliding network starts with (its current positions as rest and start).
 ClothCollision makeClothCollision(const std::vector<Vec3>& x);

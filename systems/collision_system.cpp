@@ -296,11 +296,9 @@ void collideParticles(World& world, const StepContext&) {
     });
 }
 
-void registerCollisionSystem(Catalog& catalog) {
-    catalog.addSystem(Phase::Fixed, "collisions", [](World& world, const StepContext& ctx) {
-        collideSprings(world, ctx);
-        collideParticles(world, ctx);
-    });
+void collideWithBodies(World& world, const StepContext& ctx) {
+    collideSprings(world, ctx);
+    collideParticles(world, ctx);
 }
 
 } // namespace tumble

@@ -31,7 +31,7 @@ void collideSprings(World& world, const StepContext& ctx);
 /// reversed and scaled by restitution, its sliding speed reduced by friction.
 void collideParticles(World& world, const StepContext& ctx);
 
-/// Registers the collision system.
-void registerCollisionSystem(Catalog& catalog);
+/// The `collisions` system: the spring networks' masses, then the particles.
+void collideWithBodies(World& world, const StepContext& ctx);
 
 } // namespace tumble

@@ -72,7 +72,6 @@ void updateForceFields(World& world, const StepContext& ctx) {
 
 void registerForceFieldSystem(Catalog& catalog) {
     catalog.addComponent({"force_field", loadForceField});
-    catalog.addSystem(Phase::Fixed, "force_fields", updateForceFields);
 }
 
 } // namespace tumble

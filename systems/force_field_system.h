@@ -27,7 +27,7 @@ namespace tumble {
 /// Updates every field's current wind and origin for this step.
 void updateForceFields(World& world, const StepContext& ctx);
 
-/// Registers the `force_field` component and the system.
+/// Registers the `force_field` component.
 void registerForceFieldSystem(Catalog& catalog);
 
 } // namespace tumble

@@ -213,7 +213,6 @@ void pullGrabs(World& world, const StepContext& ctx) {
 
 void registerGrabSystem(Catalog& catalog) {
     registerGrabEvents(catalog);
-    catalog.addSystem(Phase::Fixed, "mouse_spring", pullGrabs);
 }
 
 } // namespace tumble

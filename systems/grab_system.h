@@ -29,7 +29,7 @@ inline constexpr double kGrabOmega = 2.0 * 3.14159265358979323846 * 2.0;
 /// One step of every held thing's mouse spring.
 void pullGrabs(World& world, const StepContext& ctx);
 
-/// Registers the events and the system.
+/// Registers the grab events.
 void registerGrabSystem(Catalog& catalog);
 
 } // namespace tumble

@@ -225,8 +225,8 @@ void AggregationMultigrid<S>::factorCoarsest() {
         }
         m_cholesky = m_dense;
     }
-    throw std::runtime_error("implicit solver: the system matrix is not positive definite (a negative "
-                             "stiffness, mass or damping?)");
+    throw SolverError("implicit solver: the system matrix is not positive definite (a negative "
+                      "stiffness, mass or damping?)");
 }
 
 template <class S>

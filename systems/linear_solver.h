@@ -23,9 +23,17 @@
 #include <cstddef>
 
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 namespace tumble {
+
+/// The numbers of a step admit no solution (a matrix that is not positive definite): the physics diverged
+/// or was set up so that it must. A spring network that throws it is frozen as a blow-up; any other
+/// exception from a system is a programming error and ends the run.
+struct SolverError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
 
 /// A multigrid V-cycle over a BlockMatrix; see the header comment.
 template <class S>

@@ -402,8 +402,6 @@ void registerParticleSystem(Catalog& catalog) {
                                 em.rateSteps = 0;
                                 em.rateBorn = 0;
                             }});
-    catalog.addSystem(Phase::Fixed, "emitters", emitParticles);
-    catalog.addSystem(Phase::Fixed, "particles", updateParticles);
 }
 
 } // namespace tumble

@@ -41,7 +41,7 @@ void spawnParticles(ParticleEmitter& emitter, std::uint64_t n);
 /// gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel.
 std::uint32_t advanceParticles(ParticlePool& pool, const Vec3& gravity, float drag, float dt);
 
-/// Registers the `emitter` component, its dump, hash and events, and the two systems.
+/// Registers the `emitter` component, its dump, hash and events.
 void registerParticleSystem(Catalog& catalog);
 
 } // namespace tumble

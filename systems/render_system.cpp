@@ -193,6 +193,8 @@ struct FlatVertex {
     float size;
 };
 
+} // namespace
+
 /// Everything GL the renderer keeps between frames.
 struct Renderer {
     std::unique_ptr<GlContext> context;
@@ -242,6 +244,8 @@ struct Renderer {
         }
     }
 };
+
+namespace {
 
 void setupFlatAttributes() {
     glEnableVertexAttribArray(0);
@@ -776,11 +780,6 @@ void rememberPositions(World& world, const StepContext&) {
                 remember(e, {{b.position[0], b.position[1], t.position.z}, aboutZ(b.angle)});
             }
         });
-}
-
-void registerRenderSystem(Catalog& catalog) {
-    catalog.addSystem(Phase::Fixed, "render_history", rememberPositions);
-    catalog.addSystem(Phase::Frame, "render", renderWorld);
 }
 
 } // namespace tumble

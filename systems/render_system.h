@@ -41,7 +41,11 @@ bool presentImage(World& world, int width, int height);
 /// size, or the output's when it sets them.
 std::array<float, 16> viewProjection(const SceneDef& scene, const RenderOutput* output = nullptr);
 
-/// Registers the renderer as the frame phase's system.
-void registerRenderSystem(Catalog& catalog);
+/// Keeps each spring network's positions and each moving body's pose before the step (the
+/// `render_history` system, first in the fixed phase while rendering).
+void rememberPositions(World& world, const StepContext& ctx);
+
+/// The GL objects the renderer keeps between frames (a world resource, private to it).
+struct Renderer;
 
 } // namespace tumble

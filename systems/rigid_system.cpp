@@ -481,16 +481,16 @@ void registerRigidSystem(Catalog& catalog) {
     catalog.addState<RigidBody>("rigid", dumpRigid, hashRigid);
     catalog.addState<RigidBody2D>("rigid2d", dumpRigid2D, hashRigid2D);
     registerRigidEvents(catalog);
-    catalog.addSystem(Phase::Fixed, "rigid_in", [](World& world, const StepContext& ctx) {
-        bulletSyncIn(world, ctx);
-        box2dSyncIn(world, ctx);
-    });
-    catalog.addSystem(Phase::Fixed, "bullet", bulletStep);
-    catalog.addSystem(Phase::Fixed, "box2d", box2dStep);
-    catalog.addSystem(Phase::Fixed, "rigid_out", [](World& world, const StepContext& ctx) {
-        bulletSyncOut(world, ctx);
-        box2dSyncOut(world, ctx);
-    });
+}
+
+void syncRigidIn(World& world, const StepContext& ctx) {
+    bulletSyncIn(world, ctx);
+    box2dSyncIn(world, ctx);
+}
+
+void syncRigidOut(World& world, const StepContext& ctx) {
+    bulletSyncOut(world, ctx);
+    box2dSyncOut(world, ctx);
 }
 
 } // namespace tumble

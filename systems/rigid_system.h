@@ -9,10 +9,17 @@
 // See systems/bullet_bridge.h and systems/box2d_bridge.h for the bridges themselves.
 
 #include "engine/catalog.h"
+#include "engine/step_context.h"
+#include "engine/world.h"
 
 namespace tumble {
 
-/// Registers the rigid-body components, joints, codecs, events and the bridge systems.
+/// Registers the rigid-body components, joints, codecs and events (the systems are in builtin.cpp's table).
 void registerRigidSystem(Catalog& catalog);
+
+/// The `rigid_in` system: both bridges' sync-in (systems/bullet_bridge.h, systems/box2d_bridge.h).
+void syncRigidIn(World& world, const StepContext& ctx);
+/// The `rigid_out` system: both bridges' sync-out.
+void syncRigidOut(World& world, const StepContext& ctx);
 
 } // namespace tumble

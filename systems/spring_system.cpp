@@ -480,7 +480,7 @@ void integrateSprings(World& world, const StepContext& ctx) {
                 if (blewUp(net)) {
                     problem = "its state became non-finite or faster than 10 km/s";
                 }
-            } catch (const std::exception& e) {
+            } catch (const SolverError& e) {
                 problem = e.what();
             }
             if (problem.empty()) {
@@ -551,7 +551,6 @@ void registerSpringSystem(Catalog& catalog) {
             net.pinned[static_cast<std::size_t>(d)] = 0;
         }
     });
-    catalog.addSystem(Phase::Fixed, "springs", integrateSprings);
 }
 
 } // namespace tumble

@@ -19,7 +19,7 @@ namespace tumble {
 /// One fixed step of every spring network.
 void integrateSprings(World& world, const StepContext& ctx);
 
-/// Registers the spring network components, their dump and hash, their events and the system.
+/// Registers the spring network components, their dump and hash and their events.
 void registerSpringSystem(Catalog& catalog);
 
 } // namespace tumble

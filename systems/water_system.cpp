@@ -337,7 +337,9 @@ void registerWaterSystem(Catalog& catalog) {
     catalog.addState<Water>("water", dumpWater, hashWater);
     // disturb: a smooth bump of `amount` metres (negative: a dip) within `radius` of `position`
     catalog.addEventAction(
-        {"disturb", "a water surface", {"position", "radius", "amount"},
+        {"disturb",
+         "a water surface",
+         {"position", "radius", "amount"},
          [](const World& w, Entity e) { return w.has<Water>(e); },
          [](const World&, Entity, const EventDef& ev) -> std::optional<std::string> {
              if (ev.radius <= 0.0) {
@@ -357,7 +359,6 @@ void registerWaterSystem(Catalog& catalog) {
                  }
              }
          }});
-    catalog.addSystem(Phase::Fixed, "water", stepWater);
 }
 
 } // namespace tumble

@@ -22,7 +22,7 @@ namespace tumble {
 /// One fixed step of every water surface, with the bodies in it.
 void stepWater(World& world, const StepContext& ctx);
 
-/// Registers the `water` component, its dump kind "water", the `disturb` event and the system.
+/// Registers the `water` component, its dump kind "water" and the `disturb` event.
 void registerWaterSystem(Catalog& catalog);
 
 } // namespace tumble

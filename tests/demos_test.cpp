@@ -7,22 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <stb/stb_image.h>
 
-#include <algorithm>
-#include <filesystem>
-
 namespace tumble {
 namespace {
-
-std::vector<std::string> demoNames() {
-    std::vector<std::string> names;
-    for (const auto& e : std::filesystem::directory_iterator(std::string(TUMBLE_SOURCE_DIR) + "/demos")) {
-        if (e.path().extension() == ".toml") {
-            names.push_back(e.path().stem().string());
-        }
-    }
-    std::sort(names.begin(), names.end());
-    return names;
-}
 
 class Demo : public ::testing::TestWithParam<std::string> {};
 
@@ -78,7 +64,7 @@ TEST_P(Demo, NameMatchesItsFile) {
     EXPECT_EQ(peekScene(path, readScenarioFile(path)).name, GetParam());
 }
 
-INSTANTIATE_TEST_SUITE_P(Demos, Demo, ::testing::ValuesIn(demoNames()),
+INSTANTIATE_TEST_SUITE_P(Demos, Demo, ::testing::ValuesIn(test::demoNames()),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
 } // namespace

@@ -55,8 +55,8 @@ TEST(Simulation, DenormalsAreFlushedDuringAStepAndTheCallersModeIsPutBack) {
     Catalog catalog;
     registerBuiltinSystems(catalog);
     std::vector<float> seen;
-    catalog.addSystem(Phase::Fixed, "probe",
-                      [&](World&, const StepContext&) { seen.push_back(denormalProduct()); });
+    catalog.addSystem(
+        {"probe", Phase::Fixed, [&](World&, const StepContext&) { seen.push_back(denormalProduct()); }, {}});
     Simulation sim(catalog, "test.toml", kChain, {});
     sim.runFrame();
     ASSERT_EQ(seen.size(), 3u);

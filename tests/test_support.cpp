@@ -2,6 +2,7 @@
 
 #include "systems/builtin.h"
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -82,6 +83,17 @@ ProcessResult runTumble(const std::vector<std::string>& args, const std::vector<
     r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     r.err = readFile(errPath);
     return r;
+}
+
+std::vector<std::string> demoNames() {
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(std::string(TUMBLE_SOURCE_DIR) + "/demos")) {
+        if (e.path().extension() == ".toml") {
+            names.push_back(e.path().stem().string());
+        }
+    }
+    std::sort(names.begin(), names.end());
+    return names;
 }
 
 const Catalog& builtinCatalog() {

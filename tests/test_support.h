@@ -33,6 +33,9 @@ std::string writeTemp(const std::string& name, const std::string& text);
 /// Reads a whole file.
 std::string readFile(const std::string& path);
 
+/// The names of the demos in demos/ (file stems), sorted.
+std::vector<std::string> demoNames();
+
 /// The catalog of built-in systems.
 const Catalog& builtinCatalog();
 

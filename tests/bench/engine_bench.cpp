@@ -32,11 +32,13 @@ void BM_ProfiledFrame(benchmark::State& state) {
     Schedule s(p);
     int counter = 0;
     for (int i = 0; i < kSystems; ++i) {
-        s.add(i < 2    ? Phase::Input
-              : i < 10 ? Phase::Fixed
-                       : Phase::Frame,
-              "s" + std::to_string(i),
-              [&counter](World&, const StepContext&) { benchmark::DoNotOptimize(++counter); });
+        s.add(
+            i < 2    ? Phase::Input
+            : i < 10 ? Phase::Fixed
+                     : Phase::Frame,
+            "s" + std::to_string(i),
+            [&counter](World&, const StepContext&) { benchmark::DoNotOptimize(++counter); },
+            Access::everything());
     }
     World w;
     StepContext ctx;

@@ -1,0 +1,51 @@
+// The one table of systems: its run order is the order DESIGN.md states, every system declares what it
+// touches (that the declarations cover what each system does is checked while every demo runs: see
+// PinnedHash and Demo, which run them under the world's access check), and the schedule runs the table.
+
+#include "systems/builtin.h"
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+namespace tumble {
+namespace {
+
+TEST(BuiltinSystems, RunInTheStatedOrder) {
+    std::vector<std::string> fixed, frame;
+    for (const SystemEntry& s : builtinSystems()) {
+        (s.phase == Phase::Fixed ? fixed : frame).push_back(s.name);
+        EXPECT_NE(s.phase, Phase::Input) << s.name << ": the input phase is the engine's own (events)";
+        EXPECT_TRUE(s.fn) << s.name;
+        EXPECT_FALSE(s.access.all) << s.name << " declares no access of its own";
+    }
+    // force fields -> emitters -> particles -> springs/cloth -> collisions -> rigid bridges -> water; the
+    // renderer's history before them all, the mouse spring with the forces
+    EXPECT_EQ(fixed, (std::vector<std::string>{"render_history", "force_fields", "mouse_spring", "emitters",
+                                               "particles", "springs", "collisions", "cloth_collision",
+                                               "rigid_in", "bullet", "box2d", "rigid_out", "water"}));
+    EXPECT_EQ(frame, (std::vector<std::string>{"render"}));
+    // the simulation runs exactly the table, after the engine's event input
+    auto sim = test::simulate("[scene]\nname = \"empty\"\n");
+    EXPECT_EQ(sim->schedule().names(Phase::Fixed), fixed);
+    EXPECT_EQ(sim->schedule().names(Phase::Frame), frame);
+    EXPECT_EQ(sim->schedule().names(Phase::Input), (std::vector<std::string>{"events"}));
+}
+
+TEST(BuiltinSystems, OnlyTheRendererTouchesRenderState) {
+    // the renderer must never change the simulation: outside render_history and render, no system
+    // declares the render resources, and the renderer writes nothing that is simulated
+    for (const SystemEntry& s : builtinSystems()) {
+        for (const TypeRef& t : s.access.writes) {
+            if (s.name == "render") {
+                EXPECT_TRUE(t.name == "RenderOutput" || t.name == "Renderer") << t.name;
+            }
+            if (s.name == "render_history") {
+                EXPECT_TRUE(t.name == "RenderHistory" || t.name == "PoseHistory") << t.name;
+            }
+        }
+    }
+}
+
+} // namespace
+} // namespace tumble

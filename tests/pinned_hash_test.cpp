@@ -1,0 +1,74 @@
+// Every demo's state hashes over its first frames, pinned (as Box2D pins EXPECTED_HASH): any change of
+// simulated bits fails here, so that it is made on purpose. When a change of bits is intended, run
+//   TUMBLE_PRINT_PINNED=1 build/tests/tumble_tests --gtest_filter='PinnedHash*'
+// and paste the table it prints, saying in the commit why the bits changed.
+//
+// The reference is the state of an earlier build, not a prediction: this test proves only that the bits
+// did not move; the physics tests say whether they are right.
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+
+namespace tumble {
+namespace {
+
+constexpr int kFrames = 120;     ///< frames hashed per demo
+constexpr int kStressFrames = 4; ///< for the stress scenes (one frame of stress_cloth is 0.1-0.2 s)
+
+/// The demos' hashes: FNV-1a over the state hash after each of the first frames (x86-64, g++ 12).
+const std::map<std::string, std::uint64_t>& pinned() {
+    static const std::map<std::string, std::uint64_t> table = {
+        {"avalanche", 0x6d69c19afa328e10ull},    {"bridge", 0x3408f5c575e2bedeull},
+        {"crane", 0x165a58a62eb3277dull},        {"curtain", 0x13069fd87a64ec35ull},
+        {"drape", 0x589ec4c3fd158148ull},        {"drape_sphere", 0x26f85299cd95e87cull},
+        {"fireworks", 0x1f978385c4c7bcc8ull},    {"flag", 0x7949982847f728f5ull},
+        {"fountain", 0xd80c41c7f27b3a3dull},     {"integrators", 0x2646647be39b3f30ull},
+        {"jelly", 0xb59548611357bff4ull},        {"million", 0xda94374bc1bf705dull},
+        {"pendulum", 0x8fe933336facf719ull},     {"pile", 0x721ec2db2fdc174bull},
+        {"pond", 0xa02dfb2f7cf5a63aull},         {"pyramid2d", 0xaaf1caf17cbaca9bull},
+        {"rope", 0x88334b26b042cf35ull},         {"smoke", 0x04fbcff26eda3ce0ull},
+        {"stress_cloth", 0xb7a065a65c8a52a6ull}, {"tablecloth", 0xac58651905f30db5ull},
+        {"twist", 0xd3940a7b0ee725e1ull},        {"wake", 0xf1f8294f422b4b29ull},
+    };
+    return table;
+}
+
+std::uint64_t framesHash(const std::string& demo) {
+    auto sim = test::simulate(test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/" + demo + ".toml"));
+    const int frames = sim->scene().stress ? kStressFrames : kFrames;
+    std::uint64_t h = 1469598103934665603ull;
+    for (int f = 0; f < frames; ++f) {
+        sim->runFrame();
+        const std::uint64_t s = sim->hash();
+        for (int b = 0; b < 8; ++b) {
+            h = (h ^ ((s >> (8 * b)) & 0xffu)) * 1099511628211ull;
+        }
+    }
+    return h;
+}
+
+class PinnedHash : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PinnedHash, FirstFramesHaveThePinnedBits) {
+    const std::uint64_t h = framesHash(GetParam());
+    if (std::getenv("TUMBLE_PRINT_PINNED")) {
+        std::printf("        {\"%s\", 0x%016llxull},\n", GetParam().c_str(),
+                    static_cast<unsigned long long>(h));
+    }
+    const auto it = pinned().find(GetParam());
+    ASSERT_NE(it, pinned().end()) << "no pinned hash for demo " << GetParam()
+                                  << ": add the line printed with TUMBLE_PRINT_PINNED=1";
+    EXPECT_EQ(h, it->second) << "the simulated bits of " << GetParam()
+                             << " changed; if on purpose, re-pin (see the top of this file)";
+}
+
+INSTANTIATE_TEST_SUITE_P(Demos, PinnedHash, ::testing::ValuesIn(test::demoNames()),
+                         [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
+
+} // namespace
+} // namespace tumble
