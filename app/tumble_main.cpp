@@ -1,7 +1,7 @@
 // The `tumble` program: the engine's command line with the built-in systems registered and the viewer.
 
+#include "app/cli.h"
 #include "app/viewer.h"
-#include "engine/cli.h"
 #include "systems/builtin.h"
 
 int main(int argc, char** argv) {

@@ -1,17 +1,17 @@
 #include "app/viewer.h"
 
-#include "components/name.h"
+#include "app/gl_context.h"
 #include "components/particles.h"
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
-#include "components/transform.h"
 #include "engine/fixed_loop.h"
-#include "engine/gl_context.h"
+#include "engine/name.h"
 #include "engine/render_output.h"
 #include "engine/replay.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
+#include "engine/transform.h"
 #include "systems/render_system.h"
 
 #define GLFW_INCLUDE_NONE

@@ -9,8 +9,8 @@
 // pause, slow motion and wireframe change only what is seen. Without a display, view says so and suggests
 // `run`.
 
+#include "app/cli.h"
 #include "engine/catalog.h"
-#include "engine/cli.h"
 
 namespace tumble {
 

@@ -1,6 +1,6 @@
 #include "engine/dump.h"
 
-#include "components/name.h"
+#include "engine/name.h"
 
 #include <cstdio>
 

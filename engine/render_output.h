@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,9 @@ struct RenderOutput {
     std::string device;               ///< the GL version, renderer and EGL platform used
     // a live window (tumble view) asks for more: its own GL context, its size and camera, and wireframe
     bool externalContext = false;     ///< a GL ES 3 context is already current: draw with it, make none
+    /// Otherwise the renderer opens one with this on its first frame (the run's choice: app/gl_context.h's
+    /// headless EGL context); it fills the device description and keeps the context open while held.
+    std::function<std::shared_ptr<void>(std::string& device)> openContext;
     int width = 0, height = 0;        ///< the image size; 0: the scene's [render] size
     bool cameraSet = false;           ///< eye and target below replace the scene's camera
     std::array<double, 3> eye{}, target{};

@@ -1,8 +1,8 @@
 #include "engine/replay.h"
 
-#include "components/name.h"
 #include "engine/dump.h"
 #include "engine/hash.h"
+#include "engine/name.h"
 
 #include <cmath>
 #include <cstring>

@@ -1,8 +1,8 @@
 #include "engine/scenario.h"
 
-#include "components/name.h"
-#include "components/transform.h"
+#include "engine/name.h"
 #include "engine/random.h"
+#include "engine/transform.h"
 
 #include <algorithm>
 #include <cmath>

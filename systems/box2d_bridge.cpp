@@ -2,7 +2,7 @@
 
 #include "components/joint.h"
 #include "components/rigid_body_2d.h"
-#include "components/transform.h"
+#include "engine/transform.h"
 
 #include <box2d/box2d.h>
 

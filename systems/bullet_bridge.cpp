@@ -1,10 +1,10 @@
 #include "systems/bullet_bridge.h"
 
 #include "components/joint.h"
-#include "components/name.h"
 #include "components/rigid_body.h"
-#include "components/transform.h"
+#include "engine/name.h"
 #include "engine/run_report.h"
+#include "engine/transform.h"
 
 #include <btBulletDynamicsCommon.h>
 

@@ -1,8 +1,8 @@
 #include "systems/cloth_collision.h"
 
-#include "components/name.h"
 #include "components/rigid_body.h"
 #include "components/spring_network.h"
+#include "engine/name.h"
 #include "engine/profiler.h"
 #include "engine/run_report.h"
 #include "systems/ccd.h"

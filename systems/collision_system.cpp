@@ -2,8 +2,8 @@
 
 #include "components/particles.h"
 #include "components/spring_network.h"
-#include "components/transform.h"
 #include "engine/scene.h"
+#include "engine/transform.h"
 
 #include <algorithm>
 #include <cmath>

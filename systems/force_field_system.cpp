@@ -1,9 +1,9 @@
 #include "systems/force_field_system.h"
 
-#include "components/name.h"
-#include "components/transform.h"
+#include "engine/name.h"
 #include "engine/random.h"
 #include "engine/scene.h"
+#include "engine/transform.h"
 
 #include <cmath>
 #include <numbers>

@@ -5,7 +5,7 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
-#include "components/transform.h"
+#include "engine/transform.h"
 
 #include <cmath>
 #include <optional>

@@ -1,6 +1,6 @@
 #include "systems/obj_mesh.h"
 
-#include "engine/gl_context.h"
+#include "engine/assets.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,9 +1,9 @@
 #include "systems/particle_system.h"
 
 #include "components/force_field.h"
-#include "components/name.h"
-#include "components/transform.h"
+#include "engine/name.h"
 #include "engine/scene.h"
+#include "engine/transform.h"
 #include "systems/field_forces.h"
 
 #include <emmintrin.h>

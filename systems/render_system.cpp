@@ -5,17 +5,19 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
-#include "components/transform.h"
 #include "components/water.h"
-#include "engine/gl_context.h"
+#include "engine/assets.h"
 #include "engine/render_output.h"
 #include "engine/scene.h"
+#include "engine/transform.h"
 
 #include <GLES3/gl3.h>
+#include <stb/stb_image_write.h>
 
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -23,6 +25,94 @@
 #include <sstream>
 
 namespace tumble {
+
+Framebuffer::Framebuffer(int width, int height) : m_width(width), m_height(height) {
+    glGenFramebuffers(1, &m_fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
+    glGenRenderbuffers(1, &m_color);
+    glBindRenderbuffer(GL_RENDERBUFFER, m_color);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, m_color);
+    glGenRenderbuffers(1, &m_depth);
+    glBindRenderbuffer(GL_RENDERBUFFER, m_depth);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, m_depth);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+        throw std::runtime_error("the offscreen framebuffer is incomplete (" + std::to_string(width) + " x " +
+                                 std::to_string(height) + ")");
+    }
+}
+
+Framebuffer::~Framebuffer() {
+    glDeleteRenderbuffers(1, &m_depth);
+    glDeleteRenderbuffers(1, &m_color);
+    glDeleteFramebuffers(1, &m_fbo);
+}
+
+void Framebuffer::bind() const {
+    glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
+    glViewport(0, 0, m_width, m_height);
+}
+
+void Framebuffer::read(std::vector<std::uint8_t>& rgba) const {
+    bind();
+    const std::size_t row = std::size_t(m_width) * 4;
+    rgba.resize(row * std::size_t(m_height));
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, m_width, m_height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    // GL's rows run bottom-up; images run top-down
+    for (int y = 0; y < m_height / 2; ++y) {
+        std::uint8_t* a = rgba.data() + std::size_t(y) * row;
+        std::swap_ranges(a, a + row, rgba.data() + std::size_t(m_height - 1 - y) * row);
+    }
+}
+
+unsigned compileProgram(const std::string& vertexSource, const std::string& fragmentSource,
+                        const std::string& name) {
+    auto compile = [&](GLenum kind, const std::string& source) {
+        const GLuint shader = glCreateShader(kind);
+        const char* text = source.c_str();
+        glShaderSource(shader, 1, &text, nullptr);
+        glCompileShader(shader);
+        GLint ok = 0;
+        glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+        if (!ok) {
+            char log[2048];
+            glGetShaderInfoLog(shader, sizeof log, nullptr, log);
+            throw std::runtime_error("shader " + name + (kind == GL_VERTEX_SHADER ? ".vert" : ".frag") +
+                                     " does not compile: " + log);
+        }
+        return shader;
+    };
+    const GLuint vs = compile(GL_VERTEX_SHADER, vertexSource),
+                 fs = compile(GL_FRAGMENT_SHADER, fragmentSource);
+    const GLuint program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[2048];
+        glGetProgramInfoLog(program, sizeof log, nullptr, log);
+        throw std::runtime_error("shader program " + name + " does not link: " + log);
+    }
+    return program;
+}
+
+void writePng(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba) {
+    namespace fs = std::filesystem;
+    const fs::path p(path);
+    if (p.has_parent_path()) {
+        std::error_code ec;
+        fs::create_directories(p.parent_path(), ec);
+    }
+    if (!stbi_write_png(path.c_str(), width, height, 4, rgba.data(), width * 4)) {
+        throw std::runtime_error("cannot write " + path);
+    }
+}
 
 namespace {
 
@@ -197,7 +287,7 @@ struct FlatVertex {
 
 /// Everything GL the renderer keeps between frames.
 struct Renderer {
-    std::unique_ptr<GlContext> context;
+    std::shared_ptr<void> context; ///< the headless context the run opened for us (none in a window)
     std::unique_ptr<Framebuffer> target;
     GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
     Mesh sphere, cube, cylinder, plane;
@@ -266,9 +356,11 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     if (output.externalContext) {
         output.device = std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))) + " | " +
                         reinterpret_cast<const char*>(glGetString(GL_RENDERER)) + " | a window's context";
+    } else if (output.openContext) {
+        r.context = output.openContext(output.device);
     } else {
-        r.context = std::make_unique<GlContext>();
-        output.device = r.context->description();
+        throw std::logic_error("renderer: rendering is on but the run gave neither a current GL context nor "
+                               "RenderOutput::openContext");
     }
     r.live = true;
     r.target = std::make_unique<Framebuffer>(output.width > 0 ? output.width : scene.renderWidth,

@@ -1,5 +1,5 @@
 #pragma once
-// The renderer: a frame-phase system that draws the world headlessly (engine/gl_context.h) and writes PNG
+// The renderer: a frame-phase system that draws the world headlessly (app/gl_context.h) and writes PNG
 // frames. It only reads components, so rendering never changes the simulation or its hash.
 // Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, RigidBody2D, SpringNetwork,
 // ParticleEmitter, RenderHistory, PoseHistory. Writes: RenderOutput (the files written). Phase: frame;
@@ -47,5 +47,37 @@ void rememberPositions(World& world, const StepContext& ctx);
 
 /// The GL objects the renderer keeps between frames (a world resource, private to it).
 struct Renderer;
+
+// ---- the GL helpers the renderer draws with (and the viewer and the render benchmark with it)
+
+/// An offscreen RGBA8 colour + depth framebuffer.
+class Framebuffer {
+public:
+    Framebuffer(int width, int height);
+    ~Framebuffer();
+    Framebuffer(const Framebuffer&) = delete;
+    Framebuffer& operator=(const Framebuffer&) = delete;
+
+    void bind() const;
+    unsigned id() const { return m_fbo; }
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+    /// The pixels, RGBA, top row first.
+    void read(std::vector<std::uint8_t>& rgba) const;
+
+private:
+    int m_width;
+    int m_height;
+    unsigned m_fbo = 0;
+    unsigned m_color = 0;
+    unsigned m_depth = 0;
+};
+
+/// Compiles and links a program; throws std::runtime_error with the GL log on failure.
+unsigned compileProgram(const std::string& vertexSource, const std::string& fragmentSource,
+                        const std::string& name);
+
+/// Writes RGBA pixels (top row first) as a PNG; throws std::runtime_error on failure.
+void writePng(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba);
 
 } // namespace tumble

@@ -4,7 +4,7 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
-#include "components/transform.h"
+#include "engine/transform.h"
 #include "systems/box2d_bridge.h"
 #include "systems/bullet_bridge.h"
 #include "systems/obj_mesh.h"

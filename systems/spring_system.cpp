@@ -1,11 +1,11 @@
 #include "systems/spring_system.h"
 
-#include "components/name.h"
 #include "components/rigid_body.h"
-#include "components/transform.h"
+#include "engine/name.h"
 #include "engine/random.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
+#include "engine/transform.h"
 #include "systems/cloth_collision.h"
 #include "systems/spring_builders.h"
 #include "systems/spring_integrators.h"

@@ -1,10 +1,10 @@
 #include "systems/water_system.h"
 
-#include "components/name.h"
 #include "components/rigid_body.h"
-#include "components/transform.h"
+#include "engine/name.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
+#include "engine/transform.h"
 
 #include <algorithm>
 #include <cmath>

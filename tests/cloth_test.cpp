@@ -1,7 +1,7 @@
 // Cloth, soft bodies and ropes as built by the builders: structure, statics, contact with colliders, wind.
 
-#include "components/name.h"
 #include "components/spring_network.h"
+#include "engine/name.h"
 #include "engine/run_report.h"
 #include "systems/collision_system.h"
 #include "systems/spring_builders.h"

@@ -2,7 +2,7 @@
 // against its predicted projection, left and right, particle colours, PNG round trips, and a clear error
 // when no EGL display can be had.
 
-#include "engine/gl_context.h"
+#include "app/gl_context.h"
 #include "components/particles.h"
 #include "components/rigid_body.h"
 #include "components/spring_network.h"
@@ -35,6 +35,7 @@ Image renderOnce(const std::string& text) {
     auto sim = test::simulate(text);
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = true;
+    out.openContext = openHeadlessContext;
     out.directory = test::tempPath("render");
     out.lastFrame = 0; // no PNG
     sim->runFrame();
@@ -179,6 +180,7 @@ std::unique_ptr<Simulation> renderedSimulation(const std::string& text) {
     auto sim = test::simulate(text);
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = true;
+    out.openContext = openHeadlessContext;
     out.directory = test::tempPath("render");
     out.lastFrame = 0; // no PNG
     return sim;

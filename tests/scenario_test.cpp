@@ -1,8 +1,8 @@
 // The scenario loader on valid input: defaults, overrides typed by the schema, repeat and scatter, events.
 
-#include "components/name.h"
 #include "components/spring_network.h"
-#include "components/transform.h"
+#include "engine/name.h"
+#include "engine/transform.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
 // The spring system against physics: free fall, the harmonic and damped oscillators, energy, pins.
 
-#include "components/name.h"
 #include "components/spring_network.h"
+#include "engine/name.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>

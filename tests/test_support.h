@@ -1,8 +1,8 @@
 #pragma once
 // Helpers shared by the tests: running the real `tumble` program, temporary files, loading a scenario.
 
-#include "components/name.h"
 #include "engine/catalog.h"
+#include "engine/name.h"
 #include "engine/simulation.h"
 
 #include <memory>

@@ -4,9 +4,10 @@
 // work around the draw (normals, uploads, state), not its shading.
 //   build/tests/bench/tumble_bench --benchmark_filter=Render --benchmark_repetitions=5
 
+#include "app/gl_context.h"
 #include "components/rigid_body.h"
 #include "components/spring_network.h"
-#include "engine/gl_context.h"
+#include "engine/assets.h"
 #include "engine/render_output.h"
 #include "engine/simulation.h"
 #include "systems/builtin.h"
@@ -30,6 +31,7 @@ std::unique_ptr<Simulation> billowingCurtain(bool render) {
         std::make_unique<Simulation>(catalog, path, readScenarioFile(path), std::vector<std::string>{});
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = render;
+    out.openContext = openHeadlessContext;
     out.lastFrame = 0; // no PNG files
     for (int i = 0; i < 60; ++i) {
         sim->runFrame();

@@ -1,4 +1,4 @@
-#include "engine/video_encoder.h"
+#include "app/video_encoder.h"
 
 #include <cstdlib>
 #include <filesystem>

@@ -1,27 +1,28 @@
-#include "engine/cli.h"
+#include "app/cli.h"
 
+#include "app/gl_context.h"
+#include "app/progress.h"
+#include "app/video_encoder.h"
 #include "engine/dump.h"
 #include "engine/fixed_loop.h"
-#include "engine/progress.h"
-#include "engine/replay.h"
 #include "engine/render_output.h"
+#include "engine/replay.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
-#include "engine/video_encoder.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cmath>
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <optional>
-#include <chrono>
 #include <thread>
 #include <tuple>
 
@@ -97,29 +98,29 @@ struct RunOptions {
     std::string video;
     bool quiet = false;
     bool progress = false;
-    std::string record;                    ///< --record FILE
-    std::string input;                     ///< --input FILE (JSON Lines of timed actions)
+    std::string record;                     ///< --record FILE
+    std::string input;                      ///< --input FILE (JSON Lines of timed actions)
     std::optional<std::int64_t> snapshotAt; ///< --snapshot-at N
-    std::string from;                      ///< --from SNAPSHOT
-    bool verify = false;                   ///< replay --verify
-    bool realtime = false;                 ///< run --realtime
-    bool checkContact = false;             ///< run/replay --check-contact
-    bool paused = false;                   ///< view --paused
-    std::optional<double> physicsMs;       ///< budget --physics-ms
-    std::optional<double> scale;           ///< budget --scale
-    std::string chart;                     ///< budget --chart FILE (SVG)
+    std::string from;                       ///< --from SNAPSHOT
+    bool verify = false;                    ///< replay --verify
+    bool realtime = false;                  ///< run --realtime
+    bool checkContact = false;              ///< run/replay --check-contact
+    bool paused = false;                    ///< view --paused
+    std::optional<double> physicsMs;        ///< budget --physics-ms
+    std::optional<double> scale;            ///< budget --scale
+    std::string chart;                      ///< budget --chart FILE (SVG)
     std::int64_t memoryCapMiB = std::int64_t(kDefaultMemoryCap >> 20); ///< --memory-cap MIB
 };
 
 /// Where a run's scenario and events come from, and what it holds itself to.
 struct Source {
-    std::string path;                ///< the scenario's path (for messages)
-    std::string text;                ///< the scenario
-    std::vector<std::string> sets;   ///< --set overrides
+    std::string path;                         ///< the scenario's path (for messages)
+    std::string text;                         ///< the scenario
+    std::vector<std::string> sets;            ///< --set overrides
     std::shared_ptr<const ReplayFile> replay; ///< replay: the recorded events and hashes
-    bool verify = false;             ///< compare every frame's hash with the replay's
-    std::uint64_t resume = 0;        ///< --from: frames re-simulated (and checked) before the run proper
-    std::string replayPath;          ///< the replay or snapshot file, for messages
+    bool verify = false;                      ///< compare every frame's hash with the replay's
+    std::uint64_t resume = 0; ///< --from: frames re-simulated (and checked) before the run proper
+    std::string replayPath;   ///< the replay or snapshot file, for messages
     std::uint64_t memoryCap = kDefaultMemoryCap; ///< bytes the scene may ask for (--memory-cap)
 };
 
@@ -182,7 +183,8 @@ std::vector<EventDef> readInputEvents(const std::string& path, const Simulation&
             const bool known = key == "frame" || key == "t" || key == "entity" || key == "action" ||
                                key == "value" || key == "position" || key == "radius" || key == "amount";
             if (!known) {
-                fail("unknown key '" + key + "'; an action has frame or t, entity, action, value, position, "
+                fail("unknown key '" + key +
+                     "'; an action has frame or t, entity, action, value, position, "
                      "radius, amount");
             }
             if (key == "value" || key == "position" || key == "radius" || key == "amount") {
@@ -264,9 +266,11 @@ std::string describeDivergence(std::uint64_t frame, const ReplayFile& file, cons
         named.push_back({file.names[e.id].first, file.names[e.id].second, e.hash, e.id});
     }
     for (const EntityHash& r : named) {
-        const auto found = std::find_if(now.begin(), now.end(), [&](const EntityHash& e) { return e.name == r.name; });
+        const auto found =
+            std::find_if(now.begin(), now.end(), [&](const EntityHash& e) { return e.name == r.name; });
         if (found == now.end()) {
-            return where + "entity '" + r.name + "' (" + r.kind + ") is in the recording but not in the replay";
+            return where + "entity '" + r.name + "' (" + r.kind +
+                   ") is in the recording but not in the replay";
         }
         if (found->hash != r.hash) {
             return where + "entity '" + r.name + "' differs in its " + r.kind + " state (recorded " +
@@ -275,11 +279,12 @@ std::string describeDivergence(std::uint64_t frame, const ReplayFile& file, cons
     }
     for (const EntityHash& e : now) {
         if (std::none_of(named.begin(), named.end(), [&](const EntityHash& r) { return r.name == e.name; })) {
-            return where + "entity '" + e.name + "' (" + e.kind + ") is in the replay but not in the recording";
+            return where + "entity '" + e.name + "' (" + e.kind +
+                   ") is in the replay but not in the recording";
         }
     }
-    return where + "the state hash differs (recorded " + hashHex(recorded.hash) + ", replayed " + hashHex(hash) +
-           ") though every named entity matches: unnamed state (a joint, say) differs";
+    return where + "the state hash differs (recorded " + hashHex(recorded.hash) + ", replayed " +
+           hashHex(hash) + ") though every named entity matches: unnamed state (a joint, say) differs";
 }
 
 /// The simulation of a source; a replay's own scenario that does not load is the replay's fault (exit 2
@@ -308,12 +313,14 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
         for (std::size_t f = 0; f < src.replay->frames.size(); ++f) {
             for (EventDef ev : src.replay->frames[f].events) {
                 if (ev.step < f * substeps || ev.step >= (f + 1) * substeps) {
-                    throw ReplayError(src.replayPath, 0, "a recorded event at step " + std::to_string(ev.step) +
-                                                             " is filed under frame " + std::to_string(f + 1));
+                    throw ReplayError(src.replayPath, 0,
+                                      "a recorded event at step " + std::to_string(ev.step) +
+                                          " is filed under frame " + std::to_string(f + 1));
                 }
                 std::vector<std::string> present;
                 if (auto problem = resolveEvent(catalog, sim.world(), ev, present)) {
-                    throw ReplayError(src.replayPath, 0, "a recorded event does not fit its scenario: " + *problem);
+                    throw ReplayError(src.replayPath, 0,
+                                      "a recorded event does not fit its scenario: " + *problem);
                 }
                 events.push_back(std::move(ev));
             }
@@ -338,7 +345,8 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     std::uint64_t frames = static_cast<std::uint64_t>(o.frames.value_or(scene.frames));
     if (src.replay && src.resume == 0) {
         // a replay plays what was recorded, or less
-        frames = std::min<std::uint64_t>(o.frames ? frames : src.replay->frames.size(), src.replay->frames.size());
+        frames =
+            std::min<std::uint64_t>(o.frames ? frames : src.replay->frames.size(), src.replay->frames.size());
     }
     frames = std::max(frames, src.resume);
     const std::string outDir = o.out.empty() ? "out/" + scene.name : o.out;
@@ -376,7 +384,8 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
             // the run so far, as a replay to resume from, and the whole state at this frame
             const std::string base = outDir + "/snapshot_" + std::to_string(f);
             fs::create_directories(outDir);
-            ReplayWriter snap(base + ".tumble", ReplayHeader{kReplayVersion, buildId(), src.path, src.text, src.sets});
+            ReplayWriter snap(base + ".tumble",
+                              ReplayHeader{kReplayVersion, buildId(), src.path, src.text, src.sets});
             for (const FrameRecord& h : history) {
                 snap.frame(h);
             }
@@ -414,6 +423,7 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     // what the renderer is asked for (it is a frame-phase system and reads this)
     RenderOutput& render = sim.world().setResource<RenderOutput>();
     render.enabled = !o.noRender;
+    render.openContext = openHeadlessContext;
     render.directory = outDir;
     render.pngEvery = static_cast<std::uint64_t>(o.pngEvery);
     render.lastFrame = frames;
@@ -505,10 +515,12 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
     std::vector<std::string> wrote;
     if (recorder) {
         recorder->finish();
-        wrote.push_back(recorder->path() + " (a replay of " + std::to_string(recorder->frames()) + " frames)");
+        wrote.push_back(recorder->path() + " (a replay of " + std::to_string(recorder->frames()) +
+                        " frames)");
     }
     if (o.snapshotAt && sim.frame() >= snapshotAt) {
-        wrote.push_back(outDir + "/snapshot_" + std::to_string(snapshotAt) + ".tumble (resume with run --from) and .jsonl (the state)");
+        wrote.push_back(outDir + "/snapshot_" + std::to_string(snapshotAt) +
+                        ".tumble (resume with run --from) and .jsonl (the state)");
     }
     if (dump) {
         dump->close();
@@ -552,12 +564,12 @@ int simulate(const Catalog& catalog, const RunOptions& o, const Source& src) {
         }
     }
     if (o.realtime && !o.quiet) {
-        std::fprintf(stderr,
-                     "realtime: %llu frames in %.3f s of wall time, %.3f s simulated; at most %d steps a frame "
-                     "(the cap is %d); %.3f s of simulated time dropped because physics ran over its frame\n",
-                     static_cast<unsigned long long>(sim.frame()),
-                     static_cast<double>(clock.nowNs() - startNs) * 1e-9, sim.time(), sim.mostStepsInAFrame(),
-                     scene.substeps, sim.droppedSeconds());
+        std::fprintf(
+            stderr,
+            "realtime: %llu frames in %.3f s of wall time, %.3f s simulated; at most %d steps a frame "
+            "(the cap is %d); %.3f s of simulated time dropped because physics ran over its frame\n",
+            static_cast<unsigned long long>(sim.frame()), static_cast<double>(clock.nowNs() - startNs) * 1e-9,
+            sim.time(), sim.mostStepsInAFrame(), scene.substeps, sim.droppedSeconds());
     }
     if (!diverged.empty()) {
         std::fprintf(stderr, "tumble: %s\n", diverged.c_str());
@@ -592,7 +604,8 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
     if (!o.from.empty()) {
         if (!o.scenario.empty()) {
-            throw ScenarioError(o.from, 0, 0, "--from resumes the snapshot's own scenario: give no scenario with it");
+            throw ScenarioError(o.from, 0, 0,
+                                "--from resumes the snapshot's own scenario: give no scenario with it");
         }
         auto snapshot = std::make_shared<const ReplayFile>(readReplay(o.from));
         src.path = snapshot->header.scenarioPath;
@@ -612,7 +625,8 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
         return simulate(catalog, o, src);
     }
     if (o.scenario.empty()) {
-        throw ScenarioError("tumble run", 0, 0, "give a scenario (a .toml file or a demo name) or --from SNAPSHOT");
+        throw ScenarioError("tumble run", 0, 0,
+                            "give a scenario (a .toml file or a demo name) or --from SNAPSHOT");
     }
     src.path = resolveScenario(o.scenario);
     src.text = readScenarioFile(src.path);
@@ -719,7 +733,8 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     if (!o.chart.empty()) {
         chart.emplace(o.chart);
     }
-    ProgressBar bar(frames, scene.frameSeconds(), !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
+    ProgressBar bar(frames, scene.frameSeconds(),
+                    !o.quiet && (o.progress || ProgressBar::stderrIsTerminal()));
     while (sim.frame() < frames) {
         sim.runFrame();
         sim.takeAppliedEvents();
@@ -729,22 +744,22 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     const FrameStats f = sim.profiler().frameStats();
     const double limit = budget * scale;
     const bool over = f.physicsP99Ms > limit;
-    std::printf("budget of '%s': %llu frames without rendering, physics budget %.3f ms a frame", scene.name.c_str(),
-                static_cast<unsigned long long>(sim.frame()), budget);
+    std::printf("budget of '%s': %llu frames without rendering, physics budget %.3f ms a frame",
+                scene.name.c_str(), static_cast<unsigned long long>(sim.frame()), budget);
     if (scale != 1.0) {
         std::printf(" (x %.3g scale: %.3f ms)", scale, limit);
     }
     if (scene.stress) {
         std::printf("; a stress scene, beyond the 8 ms every other scene keeps to");
     }
-    std::printf("\n\n%-18s %-6s %9s %9s %9s   (a step each; %d step%s a frame)\n", "system", "phase", "p50 ms",
-                "p99 ms", "max ms", scene.substeps, scene.substeps == 1 ? "" : "s");
+    std::printf("\n\n%-18s %-6s %9s %9s %9s   (a step each; %d step%s a frame)\n", "system", "phase",
+                "p50 ms", "p99 ms", "max ms", scene.substeps, scene.substeps == 1 ? "" : "s");
     for (const SlotStats& st : sim.profiler().slotStats()) {
         if (st.isPhase || st.phase != Phase::Fixed || st.calls == 0) {
             continue;
         }
-        std::printf("%-18s %-6s %9.3f %9.3f %9.3f\n", st.name.c_str(), std::string(phaseName(st.phase)).c_str(), st.p50Ms, st.p99Ms,
-                    st.maxMs);
+        std::printf("%-18s %-6s %9.3f %9.3f %9.3f\n", st.name.c_str(),
+                    std::string(phaseName(st.phase)).c_str(), st.p50Ms, st.p99Ms, st.maxMs);
     }
     std::printf("%-18s %-6s %9.3f %9.3f %9.3f   %s\n", "physics a frame", "", f.physicsP50Ms, f.physicsP99Ms,
                 f.physicsMaxMs, over ? "OVER BUDGET" : "within budget");
@@ -843,16 +858,19 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
     CLI::App* replay = app.add_subcommand(
         "replay", "Play a replay again (same outputs as run); --verify checks every frame's state hash");
     replay->add_option("file", o.scenario, "A replay written by run --record")->required()->type_name("FILE");
-    replay->add_flag("--verify", o.verify,
-                     "Compare every frame's state with the recording; exit 4 naming the first frame and entity "
-                     "that differ");
+    replay->add_flag(
+        "--verify", o.verify,
+        "Compare every frame's state with the recording; exit 4 naming the first frame and entity "
+        "that differ");
     for (CLI::App* cmd : {run, replay}) {
         addMemoryCapOption(cmd, o);
-        cmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames; a replay's own)")
+        cmd->add_option("--frames", o.frames,
+                        "How many frames to run (default: the scene's frames; a replay's own)")
             ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
         cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
         cmd->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
-        cmd->add_option("--video", o.video, "Encode the rendered frames to FILE (.mp4 or .gif) through ffmpeg")
+        cmd->add_option("--video", o.video,
+                        "Encode the rendered frames to FILE (.mp4 or .gif) through ffmpeg")
             ->type_name("FILE");
         cmd->add_option(
                "--png-every", o.pngEvery,
@@ -863,7 +881,8 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
         cmd->add_option("--profile", o.profile,
                         "Write the budget summary as JSON to FILE (default <out>/profile.json)")
             ->type_name("FILE");
-        cmd->add_option("--trace", o.trace, "Write a Chrome trace-event JSON of every system's timing to FILE")
+        cmd->add_option("--trace", o.trace,
+                        "Write a Chrome trace-event JSON of every system's timing to FILE")
             ->type_name("FILE");
         CLI::Option* dumpOption =
             cmd->add_option("--dump", o.dump, "Write the simulation state as JSON Lines to FILE")
@@ -878,21 +897,24 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
             ->type_name("FILE");
         cmd->add_flag("--quiet", o.quiet, "No progress bar and no summary");
         cmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
-        cmd->add_flag("--check-contact", o.checkContact,
-                      "After every step, test every pair of a self-colliding cloth's triangles that share no "
-                      "corner for an exact crossing; the first is reported like a blow-up and the run exits 1");
+        cmd->add_flag(
+            "--check-contact", o.checkContact,
+            "After every step, test every pair of a self-colliding cloth's triangles that share no "
+            "corner for an exact crossing; the first is reported like a blow-up and the run exits 1");
     }
-    run->add_flag("--realtime", o.realtime,
-                  "Pace to the wall clock at the scene's frame rate; when physics runs over its frame, at most "
-                  "`substeps` steps are taken and the rest of the time is dropped (and counted)");
+    run->add_flag(
+        "--realtime", o.realtime,
+        "Pace to the wall clock at the scene's frame rate; when physics runs over its frame, at most "
+        "`substeps` steps are taken and the rest of the time is dropped (and counted)");
     run->add_option("--input", o.input,
                     "Timed actions to apply, as JSON Lines: {\"frame\": 120, \"entity\": \"crate\", "
                     "\"action\": \"impulse\", \"value\": [0, 5, 0]} (or \"t\": seconds); recorded like "
                     "the scenario's events")
         ->type_name("FILE");
-    run->add_option("--snapshot-at", o.snapshotAt,
-                    "After frame N write <out>/snapshot_N.tumble (resume it with --from) and snapshot_N.jsonl "
-                    "(the whole state)")
+    run->add_option(
+           "--snapshot-at", o.snapshotAt,
+           "After frame N write <out>/snapshot_N.tumble (resume it with --from) and snapshot_N.jsonl "
+           "(the whole state)")
         ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
         ->type_name("N");
     run->add_option("--from", o.from,
@@ -901,41 +923,52 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
         ->type_name("SNAPSHOT");
 
     CLI::App* budgetCmd = app.add_subcommand(
-        "budget", "Run a scenario without rendering and hold its physics p99 to its budget (exit 3 when over)");
+        "budget",
+        "Run a scenario without rendering and hold its physics p99 to its budget (exit 3 when over)");
     addScenarioOptions(budgetCmd, o);
     budgetCmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
         ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)));
-    budgetCmd->add_option("--physics-ms", o.physicsMs, "The budget, ms of physics a frame (default: [budget] physics_ms)")
+    budgetCmd
+        ->add_option("--physics-ms", o.physicsMs,
+                     "The budget, ms of physics a frame (default: [budget] physics_ms)")
         ->check(CLI::Range(1e-6, 1e6));
-    budgetCmd->add_option("--scale", o.scale,
-                          "Room for a slower machine: fail only above budget x S (default: $TUMBLE_BUDGET_SCALE, "
-                          "else 1)")
+    budgetCmd
+        ->add_option("--scale", o.scale,
+                     "Room for a slower machine: fail only above budget x S (default: $TUMBLE_BUDGET_SCALE, "
+                     "else 1)")
         ->check(CLI::Range(1e-6, 1e6));
-    budgetCmd->add_option("--chart", o.chart, "Write an SVG chart of physics time per frame with the budget line")
+    budgetCmd
+        ->add_option("--chart", o.chart, "Write an SVG chart of physics time per frame with the budget line")
         ->type_name("FILE");
     budgetCmd->add_flag("--quiet", o.quiet, "No progress bar");
     budgetCmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
 
     CLI::App* viewCmd = app.add_subcommand(
-        "view", "Open a window on a scenario, live: drag things with the mouse, watch the budget (needs a display)");
+        "view",
+        "Open a window on a scenario, live: drag things with the mouse, watch the budget (needs a display)");
     addScenarioOptions(viewCmd, o);
-    viewCmd->add_option("--record", o.record,
-                        "Write a replay of the session to FILE (after R, the next one to FILE-2, ...); "
-                        "`tumble replay FILE --verify` plays it back headlessly")
+    viewCmd
+        ->add_option("--record", o.record,
+                     "Write a replay of the session to FILE (after R, the next one to FILE-2, ...); "
+                     "`tumble replay FILE --verify` plays it back headlessly")
         ->type_name("FILE");
-    viewCmd->add_option("--profile", o.profile, "Write the budget summary as JSON to FILE when the window closes")
+    viewCmd
+        ->add_option("--profile", o.profile,
+                     "Write the budget summary as JSON to FILE when the window closes")
         ->type_name("FILE");
     viewCmd->add_flag("--paused", o.paused, "Start paused (Space runs, N steps once)");
-    viewCmd->footer("Mouse: left-drag a thing to pull it on a spring, left-drag empty space to orbit, right- or "
-                    "middle-drag to pan, wheel to zoom.\nKeys: Space pause, N one step, R reset, S slow motion "
-                    "(x1/4), W wireframe, I next integrator of the held (or first) spring network, Q or Esc quit.");
+    viewCmd->footer(
+        "Mouse: left-drag a thing to pull it on a spring, left-drag empty space to orbit, right- or "
+        "middle-drag to pan, wheel to zoom.\nKeys: Space pause, N one step, R reset, S slow motion "
+        "(x1/4), W wireframe, I next integrator of the held (or first) spring network, Q or Esc quit.");
 
     // an unknown verb is named, rather than CLI11's "a subcommand is required"
     if (argc >= 2 && argv[1][0] != '-') {
         const std::string verb = argv[1];
         const auto verbs = app.get_subcommands([](CLI::App*) { return true; });
         if (std::none_of(verbs.begin(), verbs.end(), [&](CLI::App* v) { return v->get_name() == verb; })) {
-            std::cerr << "tumble: unknown verb '" << verb << "'; the verbs are list, check, run, replay, budget and view\n"
+            std::cerr << "tumble: unknown verb '" << verb
+                      << "'; the verbs are list, check, run, replay, budget and view\n"
                       << "Run `tumble --help` for usage.\n";
             return kExitBadInput;
         }
@@ -967,7 +1000,8 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
         }
         if (viewCmd->parsed()) {
             if (!viewer) {
-                std::cerr << "tumble: this build has no viewer; `tumble run` simulates and writes frames headlessly\n";
+                std::cerr << "tumble: this build has no viewer; `tumble run` simulates and writes frames "
+                             "headlessly\n";
                 return kExitFailure;
             }
             ViewRequest request;

@@ -1,4 +1,4 @@
-#include "engine/progress.h"
+#include "app/progress.h"
 
 #include <algorithm>
 #include <string>
