@@ -1,6 +1,6 @@
 #include "app/viewer.h"
 
-#include "app/gl_context.h"
+#include "app/run_loop.h"
 #include "components/particles.h"
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
@@ -40,12 +40,7 @@ namespace tumble {
 
 namespace {
 
-std::string g_glfwError;         ///< the last error GLFW reported (its callback has no user pointer)
-std::atomic<bool> g_stop{false}; ///< Ctrl-C or SIGTERM: close as Q does, writing the replay and the summary
-
-extern "C" void onStopSignal(int) {
-    g_stop.store(true);
-}
+std::string g_glfwError; ///< the last error GLFW reported (its callback has no user pointer)
 
 /// Draws Dear ImGui's triangles with GLES 3. Debian's libimgui ships an OpenGL 3 backend built for desktop
 /// GL (it loads libGL.so.1 through GLX and writes "#version 130" shaders), which a GLES context through
@@ -350,6 +345,55 @@ struct Pick {
 
 constexpr double kPickPixels = 14.0; ///< how near a mass or an emitter a click must be
 
+/// A mass of a spring network under the cursor, and its distance from the eye along the ray.
+struct NetworkPick {
+    std::uint32_t mass = 0;
+    double depth = 0.0; ///< m
+};
+
+/// A surface (cloth): the free corner nearest to where the ray first meets it.
+std::optional<NetworkPick> pickSurface(const SpringNetwork& net, const Ray& ray) {
+    std::optional<NetworkPick> best;
+    for (const auto& t : net.triangles) {
+        const std::optional<double> hit = hitTriangle(ray, net.x[t[0]], net.x[t[1]], net.x[t[2]]);
+        if (!hit || (best && *hit >= best->depth)) {
+            continue;
+        }
+        const Vec3 p = ray.origin + ray.direction * *hit;
+        std::optional<std::uint32_t> free;
+        for (std::uint32_t i : t) {
+            if (!net.pinned[i] && (!free || length(net.x[i] - p) < length(net.x[*free] - p))) {
+                free = i;
+            }
+        }
+        if (free) {
+            best = NetworkPick{*free, *hit};
+        }
+    }
+    return best;
+}
+
+/// Masses alone (springs, ropes, jelly): the nearest free mass within a few pixels of the click.
+std::optional<NetworkPick> pickMass(const SpringNetwork& net, const std::array<float, 16>& vp,
+                                    const RenderOutput& out, double x, double y, const Vec3& eye) {
+    std::optional<NetworkPick> found;
+    double foundPixels = kPickPixels;
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        if (net.pinned[i]) {
+            continue;
+        }
+        if (auto p = project(vp, net.x[i], out.width, out.height)) {
+            const double pixels = std::hypot((*p)[0] - x, (*p)[1] - y);
+            if (pixels < foundPixels) {
+                // the distance along the ray, as the other picks measure it
+                found = NetworkPick{std::uint32_t(i), length(net.x[i] - eye)};
+                foundPixels = pixels;
+            }
+        }
+    }
+    return found;
+}
+
 std::optional<Pick> pickAt(World& world, const SceneDef& scene, const RenderOutput& out, double x, double y) {
     const Vec3 eye{out.eye[0], out.eye[1], out.eye[2]};
     const Vec3 target{out.target[0], out.target[1], out.target[2]};
@@ -363,50 +407,10 @@ std::optional<Pick> pickAt(World& world, const SceneDef& scene, const RenderOutp
         }
     };
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
-        // a surface (cloth): the free corner nearest to where the ray first meets it
-        if (!net.triangles.empty()) {
-            std::optional<double> nearest;
-            std::optional<std::uint32_t> corner;
-            for (const auto& t : net.triangles) {
-                const std::optional<double> hit = hitTriangle(ray, net.x[t[0]], net.x[t[1]], net.x[t[2]]);
-                if (!hit || (nearest && *hit >= *nearest)) {
-                    continue;
-                }
-                const Vec3 p = ray.origin + ray.direction * *hit;
-                std::optional<std::uint32_t> free;
-                for (std::uint32_t i : t) {
-                    if (!net.pinned[i] && (!free || length(net.x[i] - p) < length(net.x[*free] - p))) {
-                        free = i;
-                    }
-                }
-                if (free) {
-                    nearest = hit;
-                    corner = free;
-                }
-            }
-            if (corner) {
-                offer(e, {double(*corner)}, net.x[*corner], *nearest);
-            }
-            return;
-        }
-        // masses alone (springs, ropes, jelly): the nearest free mass within a few pixels of the click
-        std::optional<std::size_t> found;
-        double foundDepth = 0.0, foundPixels = kPickPixels;
-        for (std::size_t i = 0; i < net.x.size(); ++i) {
-            if (net.pinned[i]) {
-                continue;
-            }
-            if (auto p = project(vp, net.x[i], out.width, out.height)) {
-                const double pixels = std::hypot((*p)[0] - x, (*p)[1] - y);
-                if (pixels < foundPixels) {
-                    found = i;
-                    foundPixels = pixels;
-                    foundDepth = length(net.x[i] - eye); // distance along the ray, as the others
-                }
-            }
-        }
-        if (found) {
-            offer(e, {double(*found)}, net.x[*found], foundDepth);
+        const std::optional<NetworkPick> p =
+            net.triangles.empty() ? pickMass(net, vp, out, x, y, eye) : pickSurface(net, ray);
+        if (p) {
+            offer(e, {double(p->mass)}, net.x[p->mass], p->depth);
         }
     });
     world.view<const ParticleEmitter>().each([&](Entity e, const ParticleEmitter& emitter) {
@@ -497,11 +501,18 @@ private:
     void finishSession();
     void handleKeys();
     void handleMouse();
+    void pressLeft(double x, double y);
+    void pan(double dx, double dy);
+    void dragHeld(double x, double y);
     bool addEvent(const std::string& entity, const std::string& action, std::vector<double> value,
                   const Vec3& position);
     void step();
     void drawOverlay();
     void updateOutput();
+    bool openWindow();
+    void closeWindow();
+    bool frame(OverlayRenderer& overlay, const Clock& wall, std::int64_t& lastNs);
+    int runWindow();
 
     const Catalog& m_catalog;
     const ViewRequest& m_request;
@@ -527,6 +538,8 @@ private:
     std::string m_selected; ///< the spring network I acts on: the last one held
     std::string m_status;   ///< the last thing said, shown in the overlay
     std::vector<EntityHash> m_entities;
+    InputState m_input;  ///< what GLFW's callbacks gathered since the last frame
+    ReportDrain m_drain; ///< what this session's run said so far
 };
 
 void Viewer::startSession() {
@@ -542,6 +555,7 @@ void Viewer::startSession() {
     m_droppedNs = 0;
     m_held.reset();
     m_drag = Drag::None;
+    m_drain = ReportDrain{};
     RenderOutput& out = m_sim->world().setResource<RenderOutput>();
     out.enabled = true;
     out.externalContext = true;
@@ -670,6 +684,57 @@ void Viewer::updateOutput() {
     out.wireframe = m_wireframe;
 }
 
+/// A left press: hold what is under the cursor (a grab event), or orbit when nothing is.
+void Viewer::pressLeft(double x, double y) {
+    const RenderOutput& out = m_sim->world().resource<RenderOutput>();
+    m_held = pickAt(m_sim->world(), m_sim->scene(), out, x, y);
+    if (m_held && !addEvent(m_held->name, "grab", m_held->value, m_held->point)) {
+        m_held.reset(); // said why in the status line
+    }
+    if (!m_held) {
+        m_drag = Drag::Orbit;
+        return;
+    }
+    m_drag = Drag::Hold;
+    m_heldTarget = m_held->point;
+    const bool network = m_sim->world().has<SpringNetwork>(m_held->entity);
+    if (network) {
+        m_selected = m_held->name;
+    }
+    m_status =
+        "holding '" + m_held->name + "'" +
+        (network ? " by mass " + std::to_string(static_cast<long long>(m_held->value[0])) : std::string());
+}
+
+/// Moves the camera's target across the view by the cursor's motion in pixels.
+void Viewer::pan(double dx, double dy) {
+    const RenderOutput& out = m_sim->world().resource<RenderOutput>();
+    const Vec3 eye = m_camera.eye();
+    Vec3 f = m_camera.target - eye;
+    f = f * (1.0 / length(f));
+    Vec3 s = cross(f, Vec3{0.0, 1.0, 0.0});
+    s = s * (1.0 / std::max(length(s), 1e-9));
+    const Vec3 u = cross(s, f);
+    const double perPixel = 2.0 * m_camera.distance *
+                            std::tan(m_sim->scene().cameraFovDeg * std::numbers::pi / 360.0) /
+                            std::max(out.height, 1);
+    m_camera.target += (s * -dx + u * dy) * perPixel;
+}
+
+/// Moves the held point to where the cursor meets the plane through it facing the camera (a drag event).
+void Viewer::dragHeld(double x, double y) {
+    const RenderOutput& out = m_sim->world().resource<RenderOutput>();
+    const Vec3 eye{out.eye[0], out.eye[1], out.eye[2]};
+    const Vec3 target{out.target[0], out.target[1], out.target[2]};
+    Vec3 forward = target - eye;
+    forward = forward * (1.0 / length(forward));
+    const Ray ray = pixelRay(m_sim->scene(), eye, target, x, y, out.width, out.height);
+    if (auto p = onDragPlane(ray, m_heldTarget, forward); p && length(*p - m_heldTarget) > 1e-6) {
+        m_heldTarget = *p;
+        addEvent(m_held->name, "drag", {}, *p);
+    }
+}
+
 void Viewer::handleMouse() {
     const ImGuiIO& io = ImGui::GetIO();
     double x = 0.0, y = 0.0;
@@ -686,28 +751,9 @@ void Viewer::handleMouse() {
     const bool left = glfwGetMouseButton(m_window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
     const bool right = glfwGetMouseButton(m_window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS ||
                        glfwGetMouseButton(m_window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
-    const RenderOutput& out = m_sim->world().resource<RenderOutput>();
-    const SceneDef& scene = m_sim->scene();
-
     if (m_drag == Drag::None && !io.WantCaptureMouse) {
         if (left) {
-            m_held = pickAt(m_sim->world(), scene, out, x, y);
-            if (m_held && !addEvent(m_held->name, "grab", m_held->value, m_held->point)) {
-                m_held.reset(); // said why in the status line
-                m_drag = Drag::Orbit;
-            } else if (m_held) {
-                m_drag = Drag::Hold;
-                m_heldTarget = m_held->point;
-                if (m_sim->world().has<SpringNetwork>(m_held->entity)) {
-                    m_selected = m_held->name;
-                }
-                m_status = "holding '" + m_held->name + "'" +
-                           (m_sim->world().has<SpringNetwork>(m_held->entity)
-                                ? " by mass " + std::to_string(static_cast<long long>(m_held->value[0]))
-                                : std::string());
-            } else {
-                m_drag = Drag::Orbit;
-            }
+            pressLeft(x, y);
         } else if (right) {
             m_drag = Drag::Pan;
         }
@@ -721,24 +767,14 @@ void Viewer::handleMouse() {
         m_camera.yaw -= dx * 0.008;
         m_camera.pitch = std::clamp(m_camera.pitch + dy * 0.008, -1.5, 1.5);
         break;
-    case Drag::Pan: {
+    case Drag::Pan:
         if (!right) {
             m_drag = Drag::None;
             break;
         }
-        const Vec3 eye = m_camera.eye();
-        Vec3 f = m_camera.target - eye;
-        f = f * (1.0 / length(f));
-        Vec3 s = cross(f, Vec3{0.0, 1.0, 0.0});
-        s = s * (1.0 / std::max(length(s), 1e-9));
-        const Vec3 u = cross(s, f);
-        const double perPixel = 2.0 * m_camera.distance *
-                                std::tan(scene.cameraFovDeg * std::numbers::pi / 360.0) /
-                                std::max(out.height, 1);
-        m_camera.target += (s * -dx + u * dy) * perPixel;
+        pan(dx, dy);
         break;
-    }
-    case Drag::Hold: {
+    case Drag::Hold:
         if (!left) {
             addEvent(m_held->name, "release", {}, {});
             m_status = "let go of '" + m_held->name + "'";
@@ -746,17 +782,8 @@ void Viewer::handleMouse() {
             m_drag = Drag::None;
             break;
         }
-        const Vec3 eye{out.eye[0], out.eye[1], out.eye[2]};
-        const Vec3 target{out.target[0], out.target[1], out.target[2]};
-        Vec3 forward = target - eye;
-        forward = forward * (1.0 / length(forward));
-        const Ray ray = pixelRay(scene, eye, target, x, y, out.width, out.height);
-        if (auto p = onDragPlane(ray, m_heldTarget, forward); p && length(*p - m_heldTarget) > 1e-6) {
-            m_heldTarget = *p;
-            addEvent(m_held->name, "drag", {}, *p);
-        }
+        dragHeld(x, y);
         break;
-    }
     case Drag::None:
         break;
     }
@@ -831,29 +858,24 @@ void Viewer::drawOverlay() {
     ImGui::End();
 }
 
-int Viewer::run() {
-    // the scene first: a scenario error is the user's (exit 2) whether or not there is a display; the
-    // outputs once there is a window, so that a run that cannot open one overwrites nothing
-    startSession();
-    if (!m_request.profile.empty() && !std::ofstream(m_request.profile, std::ios::app)) {
-        std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
-        return kExitFailure;
-    }
+/// The window, its GLES 3 context (through EGL, as the headless renderer's) and Dear ImGui; false, having
+/// said why, when there is no display or no context to be had.
+bool Viewer::openWindow() {
     if (!std::getenv("DISPLAY") && !std::getenv("WAYLAND_DISPLAY")) {
         std::fprintf(stderr,
                      "tumble: view needs a display, and there is none here (DISPLAY is not set); "
                      "`tumble run %s` simulates headlessly and writes PNG frames (--png-every, --video)\n",
                      m_request.scenarioPath.c_str());
-        return kExitFailure;
+        return false;
     }
     glfwSetErrorCallback([](int, const char* message) { g_glfwError = message; });
     if (!glfwInit()) {
         std::fprintf(stderr,
                      "tumble: view cannot open a window here (%s); `tumble run %s` simulates headlessly\n",
                      g_glfwError.c_str(), m_request.scenarioPath.c_str());
-        return kExitFailure;
+        return false;
     }
-    const SceneDef scene = m_sim->scene(); // a copy: a reset replaces the simulation
+    const SceneDef& scene = m_sim->scene();
     glfwWindowHint(GLFW_CLIENT_API, GLFW_OPENGL_ES_API);
     glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_EGL_CONTEXT_API);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -866,12 +888,11 @@ int Viewer::run() {
                      "tumble: view cannot open a window with an OpenGL ES 3 context (%s); `tumble run %s` "
                      "simulates headlessly\n",
                      g_glfwError.c_str(), m_request.scenarioPath.c_str());
-        return kExitFailure;
+        return false;
     }
     glfwMakeContextCurrent(m_window);
-    glfwSwapInterval(0); // paced below, so that a display without vsync (Xvfb) runs at 60 fps too
-    InputState input;
-    g_input = &input;
+    glfwSwapInterval(0); // paced by the frame pacer, so that a display without vsync (Xvfb) runs at 60 fps
+    g_input = &m_input;
     glfwSetKeyCallback(m_window, [](GLFWwindow*, int key, int, int action, int) {
         if (action == GLFW_PRESS && !ImGui::GetIO().WantTextInput) {
             g_input->keys.push_back(key);
@@ -883,91 +904,103 @@ int Viewer::run() {
     ImGui::GetIO().IniFilename = nullptr;
     ImGui::StyleColorsDark();
     ImGui_ImplGlfw_InitForOther(m_window, true); // chains to the callbacks above
+    return true;
+}
+
+void Viewer::closeWindow() {
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+    glfwDestroyWindow(m_window);
+    glfwTerminate();
+    g_input = nullptr;
+}
+
+/// One frame of the window: input, the steps the (scaled) time since the last frame completes (at most a
+/// frame's worth), what the run said, the scene and the overlay. False when the user quits.
+bool Viewer::frame(OverlayRenderer& overlay, const Clock& wall, std::int64_t& lastNs) {
+    glfwPollEvents();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    handleKeys();
+    if (m_quit) {
+        ImGui::EndFrame();
+        return false;
+    }
+    updateOutput();
+    handleMouse();
+    updateOutput();
+    const std::int64_t now = wall.nowNs();
+    m_clock.advance(now - lastNs, m_paused ? 0.0 : (m_slow ? 0.25 : 1.0));
+    lastNs = now;
+    const Tick tick = m_loop->advanceTo(m_clock);
+    m_droppedNs += tick.droppedNs;
+    m_sim->beginFrame();
+    for (int i = 0; i < tick.steps; ++i) {
+        step();
+    }
+    m_sim->endFrame(m_paused ? 1.0 : tick.alpha);
+    m_drain.drain(m_sim->world().resource<RunReport>(), [&](const std::string& said, bool failure) {
+        std::fprintf(stderr, "tumble: %s: %s\n", failure ? "error" : "note", said.c_str());
+        m_status = said.substr(0, 120);
+    });
+    int width = 0, height = 0;
+    glfwGetFramebufferSize(m_window, &width, &height);
+    presentImage(m_sim->world(), width, height);
+    drawOverlay();
+    ImGui::Render();
+    overlay.draw(ImGui::GetDrawData());
+    glfwSwapBuffers(m_window);
+    return true;
+}
+
+/// Frames at 60 Hz until the window closes, Q, or the first Ctrl-C (which closes as Q does; a second one
+/// kills); then the replay and the budget summary. Returns the exit code.
+int Viewer::runWindow() {
+    OverlayRenderer overlay;
+    openRecorder();
+    m_camera = OrbitCamera::from(m_sim->scene());
+    m_paused = m_request.paused;
+    std::printf("tumble: viewing '%s'%s; Q or Esc quits\n", m_sim->scene().name.c_str(),
+                m_request.record.empty() ? "" : (", recording to " + m_request.record).c_str());
+    std::fflush(stdout);
+    const StopSignal stop;
+    const SteadyClock wall;
+    std::int64_t lastNs = wall.nowNs();
+    FramePacer pacer(wall, 1'000'000'000 / 60);
+    while (!glfwWindowShouldClose(m_window) && !stop.requested() && frame(overlay, wall, lastNs)) {
+        pacer.wait();
+    }
+    finishSession();
     int status = kExitOk;
-    auto closeWindow = [&] {
-        ImGui_ImplGlfw_Shutdown();
-        ImGui::DestroyContext();
-        glfwDestroyWindow(m_window);
-        glfwTerminate();
-        g_input = nullptr;
-    };
+    if (!m_request.profile.empty()) {
+        std::ofstream profile(m_request.profile);
+        profile << budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame());
+        if (!profile) {
+            std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
+            status = kExitFailure;
+        } else {
+            m_recordings.push_back(m_request.profile + " (the budget summary)");
+        }
+    }
+    // the renderer frees its GL objects while the window's context is still current
+    m_sim.reset();
+    return status;
+}
+
+int Viewer::run() {
+    // the scene first: a scenario error is the user's (exit 2) whether or not there is a display; the
+    // outputs once there is a window, so that a run that cannot open one overwrites nothing
+    startSession();
+    if (!m_request.profile.empty() && !std::ofstream(m_request.profile, std::ios::app)) {
+        std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
+        return kExitFailure;
+    }
+    if (!openWindow()) {
+        return kExitFailure;
+    }
+    int status = kExitOk;
     try {
-        OverlayRenderer overlay;
-        openRecorder();
-        m_camera = OrbitCamera::from(scene);
-        m_paused = m_request.paused;
-        const SteadyClock wall;
-        std::int64_t lastNs = wall.nowNs();
-        const std::int64_t periodNs = 1'000'000'000 / 60;
-        std::int64_t nextNs = lastNs;
-        std::size_t reported = 0;
-        std::printf("tumble: viewing '%s'%s; Q or Esc quits\n", scene.name.c_str(),
-                    m_request.record.empty() ? "" : (", recording to " + m_request.record).c_str());
-        std::fflush(stdout);
-        // the first Ctrl-C closes the window as Q does; a second one kills
-        struct sigaction stop {};
-        stop.sa_handler = onStopSignal;
-        stop.sa_flags = SA_RESETHAND;
-        sigemptyset(&stop.sa_mask);
-        ::sigaction(SIGINT, &stop, nullptr);
-        ::sigaction(SIGTERM, &stop, nullptr);
-        while (!glfwWindowShouldClose(m_window) && !m_quit && !g_stop.load()) {
-            glfwPollEvents();
-            ImGui_ImplGlfw_NewFrame();
-            ImGui::NewFrame();
-            handleKeys();
-            if (m_quit) {
-                ImGui::EndFrame();
-                break;
-            }
-            updateOutput();
-            handleMouse();
-            updateOutput();
-            // the steps the (scaled) time since the last frame completes, at most a frame's worth
-            const std::int64_t now = wall.nowNs();
-            m_clock.advance(now - lastNs, m_paused ? 0.0 : (m_slow ? 0.25 : 1.0));
-            lastNs = now;
-            const Tick tick = m_loop->advanceTo(m_clock);
-            m_droppedNs += tick.droppedNs;
-            m_sim->beginFrame();
-            for (int i = 0; i < tick.steps; ++i) {
-                step();
-            }
-            m_sim->endFrame(m_paused ? 1.0 : tick.alpha);
-            const RunReport& report = m_sim->world().resource<RunReport>();
-            for (; reported < report.failures.size() + report.notes.size(); ++reported) {
-                const std::string& said = reported < report.failures.size()
-                                              ? report.failures[reported]
-                                              : report.notes[reported - report.failures.size()];
-                std::fprintf(stderr, "tumble: %s\n", said.c_str());
-                m_status = said.substr(0, 120);
-            }
-            // the scene, then the overlay
-            int width = 0, height = 0;
-            glfwGetFramebufferSize(m_window, &width, &height);
-            presentImage(m_sim->world(), width, height);
-            drawOverlay();
-            ImGui::Render();
-            overlay.draw(ImGui::GetDrawData());
-            glfwSwapBuffers(m_window);
-            nextNs = std::max(nextNs + periodNs, wall.nowNs() - periodNs);
-            if (const std::int64_t wait = nextNs - wall.nowNs(); wait > 0) {
-                std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
-            }
-        }
-        finishSession();
-        if (!m_request.profile.empty()) {
-            std::ofstream profile(m_request.profile);
-            profile << budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame());
-            if (!profile) {
-                std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
-                status = kExitFailure;
-            } else {
-                m_recordings.push_back(m_request.profile + " (the budget summary)");
-            }
-        }
-        // the renderer frees its GL objects while the window's context is still current
-        m_sim.reset();
+        status = runWindow();
     } catch (...) {
         // keep what was recorded (the replay ends properly), close the window, then say what happened
         try {

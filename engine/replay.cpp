@@ -287,12 +287,11 @@ ReplayFile readReplay(const std::string& path) {
     return parseReplay(path, bytes);
 }
 
-ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
-    if (bytes.size() > kMaxReplayBytes) {
-        throw ReplayError(path, 0, "is larger than a replay may be (1 GiB)");
-    }
-    ReplayFile file;
-    file.fileBytes = bytes.size();
+namespace {
+
+/// The header: magic, version, build, scenario and overrides, checked by its checksum. Returns the offset
+/// where the chunks start.
+std::uint64_t parseHeader(const std::string& path, const std::string& bytes, ReplayFile& file) {
     Cursor top(path, bytes, 0);
     if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) {
         top.fail("not a Tumble replay (it does not start with TUMBLERP)");
@@ -310,17 +309,15 @@ ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
         top.fail("the header runs past the end of the file");
     }
     const std::string header = bytes.substr(headerAt, headerBytes);
-    {
-        Cursor h(path, header, headerAt);
-        file.header.buildId = h.string("the build id");
-        file.header.scenarioPath = h.string("the scenario's path");
-        file.header.scenarioText = h.string("the scenario");
-        const std::uint32_t n = h.count("the overrides", 4);
-        for (std::uint32_t i = 0; i < n; ++i) {
-            file.header.overrides.push_back(h.string("an override"));
-        }
+    Cursor h(path, header, headerAt);
+    file.header.buildId = h.string("the build id");
+    file.header.scenarioPath = h.string("the scenario's path");
+    file.header.scenarioText = h.string("the scenario");
+    const std::uint32_t n = h.count("the overrides", 4);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        file.header.overrides.push_back(h.string("an override"));
     }
-    std::uint64_t at = headerAt + headerBytes;
+    const std::uint64_t at = headerAt + headerBytes;
     if (bytes.size() - at < 8) {
         throw ReplayError(path, at, "the data ends inside the header's checksum");
     }
@@ -329,27 +326,89 @@ ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
     if (sum != checksum(header)) {
         throw ReplayError(path, headerAt, "the header is damaged (its checksum does not match)");
     }
-    at += 8;
-    file.validBytes = at;
+    return at + 8;
+}
 
+/// The end marker at `at` ("ENDR", the frame count, its checksum): the file is complete. Cut short inside
+/// the marker, it is not, but every chunk before it is whole.
+void parseEnd(const std::string& path, const std::string& bytes, std::uint64_t at, ReplayFile& file) {
+    const std::size_t left = bytes.size() - at;
+    if (left < 20) {
+        return;
+    }
+    if (left > 20) {
+        throw ReplayError(path, at + 20, "there are bytes after the end marker");
+    }
+    const std::string count = bytes.substr(at + 4, 8);
+    std::uint64_t frames, check;
+    std::memcpy(&frames, count.data(), 8);
+    std::memcpy(&check, bytes.data() + at + 12, 8);
+    if (check != checksum(count) || frames != file.frames.size()) {
+        throw ReplayError(path, at, "the end marker is damaged");
+    }
+    file.complete = true;
+    file.validBytes = bytes.size();
+}
+
+/// One chunk's payload: the names it introduces, then its frames (events, hash, entity hashes).
+void parseChunk(Cursor& c, ReplayFile& file) {
+    const auto first = c.get<std::uint64_t>("the chunk's first frame");
+    if (first != file.frames.size()) {
+        c.fail("the chunk starts at frame " + std::to_string(first) + ", not " +
+               std::to_string(file.frames.size()));
+    }
+    const std::uint32_t frames = c.count("the chunk's frames", 16);
+    const std::uint32_t declared = c.count("the chunk's names", 12);
+    for (std::uint32_t i = 0; i < declared; ++i) {
+        const auto id = c.get<std::uint32_t>("a name's id");
+        if (id != file.names.size()) {
+            c.fail("name ids out of order");
+        }
+        std::string name = c.string("a name");
+        std::string kind = c.string("a kind");
+        if (name.size() > kMaxNameBytes || kind.size() > kMaxNameBytes) {
+            c.fail("an entity's name or kind is longer than any entity's can be");
+        }
+        file.names.emplace_back(std::move(name), std::move(kind));
+    }
+    for (std::uint32_t f = 0; f < frames; ++f) {
+        FrameRecord rec;
+        const std::uint32_t events = c.count("a frame's events", 40);
+        for (std::uint32_t k = 0; k < events; ++k) {
+            rec.events.push_back(getEvent(c));
+        }
+        rec.hash = c.get<std::uint64_t>("a frame's hash");
+        const std::uint32_t entities = c.count("a frame's entities", 12);
+        for (std::uint32_t k = 0; k < entities; ++k) {
+            const auto id = c.get<std::uint32_t>("an entity's id");
+            if (id >= file.names.size()) {
+                c.fail("entity id " + std::to_string(id) + " was never named");
+            }
+            rec.entities.push_back({{}, {}, c.get<std::uint64_t>("an entity's hash"), id});
+        }
+        file.frames.push_back(std::move(rec));
+    }
+    if (c.remaining() != 0) {
+        c.fail("a chunk has bytes left over");
+    }
+}
+
+} // namespace
+
+ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
+    if (bytes.size() > kMaxReplayBytes) {
+        throw ReplayError(path, 0, "is larger than a replay may be (1 GiB)");
+    }
+    ReplayFile file;
+    file.fileBytes = bytes.size();
+    std::uint64_t at = parseHeader(path, bytes, file);
+    file.validBytes = at;
+    // chunks, each "CHNK", its length twice (the second inverted), the payload and its checksum; a file cut
+    // short keeps every whole chunk before the cut
     while (at < bytes.size()) {
         const std::size_t left = bytes.size() - at;
         if (left >= 4 && std::memcmp(bytes.data() + at, "ENDR", 4) == 0) {
-            if (left < 20) {
-                break; // cut short inside the end marker: every chunk is whole
-            }
-            if (left > 20) {
-                throw ReplayError(path, at + 20, "there are bytes after the end marker");
-            }
-            const std::string count = bytes.substr(at + 4, 8);
-            std::uint64_t frames, check;
-            std::memcpy(&frames, count.data(), 8);
-            std::memcpy(&check, bytes.data() + at + 12, 8);
-            if (check != checksum(count) || frames != file.frames.size()) {
-                throw ReplayError(path, at, "the end marker is damaged");
-            }
-            file.complete = true;
-            file.validBytes = bytes.size();
+            parseEnd(path, bytes, at, file);
             break;
         }
         if (left < 12) {
@@ -378,45 +437,7 @@ ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
             throw ReplayError(path, at + 12, "a chunk is damaged (its checksum does not match)");
         }
         Cursor c(path, payload, at + 12);
-        const auto first = c.get<std::uint64_t>("the chunk's first frame");
-        if (first != file.frames.size()) {
-            c.fail("the chunk starts at frame " + std::to_string(first) + ", not " +
-                   std::to_string(file.frames.size()));
-        }
-        const std::uint32_t frames = c.count("the chunk's frames", 16);
-        const std::uint32_t declared = c.count("the chunk's names", 12);
-        for (std::uint32_t i = 0; i < declared; ++i) {
-            const auto id = c.get<std::uint32_t>("a name's id");
-            if (id != file.names.size()) {
-                c.fail("name ids out of order");
-            }
-            std::string name = c.string("a name");
-            std::string kind = c.string("a kind");
-            if (name.size() > kMaxNameBytes || kind.size() > kMaxNameBytes) {
-                c.fail("an entity's name or kind is longer than any entity's can be");
-            }
-            file.names.emplace_back(std::move(name), std::move(kind));
-        }
-        for (std::uint32_t f = 0; f < frames; ++f) {
-            FrameRecord rec;
-            const std::uint32_t events = c.count("a frame's events", 40);
-            for (std::uint32_t k = 0; k < events; ++k) {
-                rec.events.push_back(getEvent(c));
-            }
-            rec.hash = c.get<std::uint64_t>("a frame's hash");
-            const std::uint32_t entities = c.count("a frame's entities", 12);
-            for (std::uint32_t k = 0; k < entities; ++k) {
-                const auto id = c.get<std::uint32_t>("an entity's id");
-                if (id >= file.names.size()) {
-                    c.fail("entity id " + std::to_string(id) + " was never named");
-                }
-                rec.entities.push_back({{}, {}, c.get<std::uint64_t>("an entity's hash"), id});
-            }
-            file.frames.push_back(std::move(rec));
-        }
-        if (c.remaining() != 0) {
-            c.fail("a chunk has bytes left over");
-        }
+        parseChunk(c, file);
         at += 12 + std::uint64_t(n) + 8;
         file.validBytes = at;
     }

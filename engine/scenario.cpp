@@ -274,6 +274,39 @@ std::vector<Placement> placements(TableReader& e, const std::string& name, Vec3 
     return out;
 }
 
+/// An entity's component tables, each with its loader: every key that is not the entity's own bookkeeping
+/// (name, transform, repeat, scatter). An unknown key fails with the nearest known one.
+std::vector<std::pair<const ComponentLoader*, const toml::table*>>
+componentTables(const toml::table& table, const std::string& where, const LoadContext& ctx,
+                const Catalog& catalog, TableReader& e) {
+    std::vector<std::pair<const ComponentLoader*, const toml::table*>> components;
+    for (auto&& [k, v] : table) {
+        const std::string key(k.str());
+        if (key == "name" || key == "transform" || key == "repeat" || key == "scatter") {
+            continue;
+        }
+        const ComponentLoader* loader = catalog.findComponent(key);
+        if (!loader) {
+            std::vector<std::string> known = catalog.componentKeys();
+            known.insert(known.end(), {"name", "transform", "repeat", "scatter"});
+            const std::string near = nearestName(key, known);
+            std::string keys;
+            for (const std::string& s : catalog.componentKeys()) {
+                keys += (keys.empty() ? "" : ", ") + s;
+            }
+            ctx.fail(&v, "unknown key '" + key + "' in " + where +
+                             (near.empty() ? "; components in this build: " + keys
+                                           : " (did you mean '" + near + "'?)"));
+        }
+        if (!v.is_table()) {
+            ctx.fail(&v, where + ": '" + key + "' must be a table, written [entity." + key + "]");
+        }
+        e.has(key);
+        components.emplace_back(loader, v.as_table());
+    }
+    return components;
+}
+
 void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
                   const SceneDef& scene, World& world, std::map<std::string, Entity>& byName) {
     const toml::node* node = root.get("entity");
@@ -306,32 +339,7 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
             e.fail("name", "the scene has more than " + std::to_string(Limits::kMaxEntities) + " entities");
         }
 
-        // component keys: everything that is not the entity's own bookkeeping
-        std::vector<std::pair<const ComponentLoader*, const toml::table*>> components;
-        for (auto&& [k, v] : table) {
-            const std::string key(k.str());
-            if (key == "name" || key == "transform" || key == "repeat" || key == "scatter") {
-                continue;
-            }
-            const ComponentLoader* loader = catalog.findComponent(key);
-            if (!loader) {
-                std::vector<std::string> known = catalog.componentKeys();
-                known.insert(known.end(), {"name", "transform", "repeat", "scatter"});
-                const std::string near = nearestName(key, known);
-                std::string keys;
-                for (const std::string& s : catalog.componentKeys()) {
-                    keys += (keys.empty() ? "" : ", ") + s;
-                }
-                ctx.fail(&v, "unknown key '" + key + "' in " + where +
-                                 (near.empty() ? "; components in this build: " + keys
-                                               : " (did you mean '" + near + "'?)"));
-            }
-            if (!v.is_table()) {
-                ctx.fail(&v, where + ": '" + key + "' must be a table, written [entity." + key + "]");
-            }
-            e.has(key);
-            components.emplace_back(loader, v.as_table());
-        }
+        const auto components = componentTables(table, where, ctx, catalog, e);
         e.finish();
 
         // every instance re-reads the component tables: bound the total work a small file can ask for

@@ -1,0 +1,62 @@
+#include "app/run_loop.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <thread>
+
+namespace tumble {
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+static_assert(std::atomic<bool>::is_always_lock_free, "the signal handler needs a lock-free flag");
+
+extern "C" void onStopSignal(int) {
+    g_stop.store(true);
+}
+
+} // namespace
+
+FramePacer::FramePacer(const Clock& clock, std::int64_t periodNs)
+    : m_clock(clock), m_periodNs(periodNs), m_nextNs(clock.nowNs()) {}
+
+void FramePacer::wait() {
+    m_nextNs = std::max(m_nextNs + m_periodNs, m_clock.nowNs());
+    if (const std::int64_t wait = m_nextNs - m_clock.nowNs(); wait > 0) {
+        std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
+    }
+}
+
+StopSignal::StopSignal() {
+    g_stop.store(false);
+    // SA_RESETHAND: the handler goes after the first signal, so a second one kills
+    struct sigaction stop {};
+    stop.sa_handler = onStopSignal;
+    stop.sa_flags = SA_RESETHAND;
+    sigemptyset(&stop.sa_mask);
+    ::sigaction(SIGINT, &stop, nullptr);
+    ::sigaction(SIGTERM, &stop, nullptr);
+}
+
+StopSignal::~StopSignal() {
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+}
+
+bool StopSignal::requested() const {
+    return g_stop.load();
+}
+
+void ReportDrain::drain(const RunReport& report, const std::function<void(const std::string&, bool)>& say) {
+    for (; m_failures < report.failures.size(); ++m_failures) {
+        say(report.failures[m_failures], true);
+    }
+    for (; m_notes < report.notes.size(); ++m_notes) {
+        say(report.notes[m_notes], false);
+    }
+}
+
+} // namespace tumble
