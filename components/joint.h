@@ -25,10 +25,10 @@ struct Joint {
     bool limited = false;     ///< hinge (rad) and slider (m) limits
     double lower = 0.0;
     double upper = 0.0;
-    double stiffness = 0.0;   ///< spring: N/m
-    double damping = 0.0;     ///< spring: N s/m
-    double rest = 0.0;        ///< spring: m
-    Vec3 localA, localB;      ///< spring (Bullet): its ends in a's frame and b's (the world's for none)
+    double stiffness = 0.0;         ///< spring: N/m
+    double damping = 0.0;           ///< spring: N s/m
+    double rest = 0.0;              ///< spring: m
+    Vec3 localA, localB;            ///< spring (Bullet): its ends in a's frame and b's (the world's for none)
     std::int32_t constraintId = -1; ///< the bridge's; -1 until made
 };
 

@@ -22,36 +22,36 @@ enum class ShapeKind : std::uint8_t { Plane, Box, Sphere, Capsule, Cylinder, Con
 
 /// A triangle mesh from an OBJ file, in the body's frame: a convex hull's points or a static mesh.
 struct ShapeMesh {
-    std::string path;                                     ///< as the scenario names it
-    std::vector<Vec3> vertices;                           ///< m
-    std::vector<std::array<std::uint32_t, 3>> triangles;  ///< counter-clockwise seen from outside
-    std::vector<Vec3> faceNormals;                        ///< per triangle, unit, outward
-    std::vector<int> faceLines;                           ///< per triangle, its line in the file
-    Vec3 lo, hi;                                          ///< bounds, m
-    Vec3 centre;                                          ///< convex: the file's point now at the origin
+    std::string path;                                    ///< as the scenario names it
+    std::vector<Vec3> vertices;                          ///< m
+    std::vector<std::array<std::uint32_t, 3>> triangles; ///< counter-clockwise seen from outside
+    std::vector<Vec3> faceNormals;                       ///< per triangle, unit, outward
+    std::vector<int> faceLines;                          ///< per triangle, its line in the file
+    Vec3 lo, hi;                                         ///< bounds, m
+    Vec3 centre;                                         ///< convex: the file's point now at the origin
 };
 
 /// Shape, material, pose and velocities of a rigid body (3D, Bullet).
 struct RigidBody {
     ShapeKind shape = ShapeKind::Box;
-    Vec3 normal{0.0, 1.0, 0.0};               ///< plane: unit normal
-    Vec3 halfExtents{0.5, 0.5, 0.5};          ///< box: m, in the body's frame
-    double radius = 0.5;                      ///< sphere, capsule, cylinder: m
-    double height = 1.0;                      ///< capsule, cylinder: m, along the body's y (the capsule's straight part)
-    std::shared_ptr<const ShapeMesh> mesh;    ///< convex, mesh
-    double mass = 0.0;                        ///< kg; 0 = static
+    Vec3 normal{0.0, 1.0, 0.0};      ///< plane: unit normal
+    Vec3 halfExtents{0.5, 0.5, 0.5}; ///< box: m, in the body's frame
+    double radius = 0.5;             ///< sphere, capsule, cylinder: m
+    double height = 1.0; ///< capsule, cylinder: m, along the body's y (the capsule's straight part)
+    std::shared_ptr<const ShapeMesh> mesh; ///< convex, mesh
+    double mass = 0.0;                     ///< kg; 0 = static
     double friction = 0.6;
     double restitution = 0.0;
-    bool canSleep = true;                     ///< Bullet may put it to sleep when it rests
-    Vec3 color{0.62, 0.60, 0.56};             ///< RGB in [0, 1], for the renderer only
+    bool canSleep = true;         ///< Bullet may put it to sleep when it rests
+    Vec3 color{0.62, 0.60, 0.56}; ///< RGB in [0, 1], for the renderer only
 
     // state, as the bridge last left it (the loader sets the start)
-    Vec3 position;          ///< m, centre (plane: a point on it)
-    Quat orientation;       ///< body frame to world
-    Vec3 linearVelocity;    ///< m/s
-    Vec3 angularVelocity;   ///< rad/s, world axes
-    bool sleeping = false;  ///< resting, not simulated until touched
-    bool frozen = false;    ///< it blew up: kept where it was last finite, no longer simulated
+    Vec3 position;         ///< m, centre (plane: a point on it)
+    Quat orientation;      ///< body frame to world
+    Vec3 linearVelocity;   ///< m/s
+    Vec3 angularVelocity;  ///< rad/s, world axes
+    bool sleeping = false; ///< resting, not simulated until touched
+    bool frozen = false;   ///< it blew up: kept where it was last finite, no longer simulated
 
     // bridge
     std::int32_t bodyId = -1; ///< the engine's body; -1 until the bridge has made it

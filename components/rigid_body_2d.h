@@ -19,21 +19,21 @@ using Vec2 = std::array<double, 2>;
 /// Shape, material, pose and velocities of a 2D rigid body.
 struct RigidBody2D {
     Shape2DKind shape = Shape2DKind::Box;
-    Vec2 halfExtents{0.5, 0.5};  ///< box: m
-    double radius = 0.5;         ///< circle: m
-    std::vector<Vec2> vertices;  ///< polygon: m, body frame, convex, counter-clockwise
-    Vec2 from{-1.0, 0.0};        ///< edge: m, body frame
-    Vec2 to{1.0, 0.0};           ///< edge: m, body frame
-    double mass = 0.0;           ///< kg; 0 = static
+    Vec2 halfExtents{0.5, 0.5}; ///< box: m
+    double radius = 0.5;        ///< circle: m
+    std::vector<Vec2> vertices; ///< polygon: m, body frame, convex, counter-clockwise
+    Vec2 from{-1.0, 0.0};       ///< edge: m, body frame
+    Vec2 to{1.0, 0.0};          ///< edge: m, body frame
+    double mass = 0.0;          ///< kg; 0 = static
     double friction = 0.6;
     double restitution = 0.0;
     bool canSleep = true;
     Vec3 color{0.62, 0.60, 0.56}; ///< RGB in [0, 1], for the renderer only
 
     // state, as the bridge last left it
-    Vec2 position{0.0, 0.0};  ///< m
-    double angle = 0.0;       ///< rad, counter-clockwise about z
-    Vec2 velocity{0.0, 0.0};  ///< m/s
+    Vec2 position{0.0, 0.0};      ///< m
+    double angle = 0.0;           ///< rad, counter-clockwise about z
+    Vec2 velocity{0.0, 0.0};      ///< m/s
     double angularVelocity = 0.0; ///< rad/s
     bool sleeping = false;
 

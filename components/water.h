@@ -14,23 +14,23 @@ enum class WaterBorder : std::uint8_t { Reflect, Absorb };
 
 /// The height field and its parameters (CONTRACT.md `water`).
 struct Water {
-    int nx = 64, nz = 64;         ///< nodes along x and z (rows run along x, one per z)
-    double sizeX = 10.0;          ///< m, from the first node to the last along x
-    double sizeZ = 10.0;          ///< m, along z
-    double depth = 1.0;           ///< m, still water's depth (the floor of the pool, for rendering)
-    double waveSpeed = 2.0;       ///< m/s, c in u_tt = c^2 (u_xx + u_zz)
-    double damping = 0.0;         ///< 1/s, -damping u_t
-    double density = 1000.0;      ///< kg/m^3, for buoyancy
-    double bodyDrag = 0.5;        ///< how strongly water slows what moves through it, 1/s per unit of
-                                  ///< submerged fraction
+    int nx = 64, nz = 64;    ///< nodes along x and z (rows run along x, one per z)
+    double sizeX = 10.0;     ///< m, from the first node to the last along x
+    double sizeZ = 10.0;     ///< m, along z
+    double depth = 1.0;      ///< m, still water's depth (the floor of the pool, for rendering)
+    double waveSpeed = 2.0;  ///< m/s, c in u_tt = c^2 (u_xx + u_zz)
+    double damping = 0.0;    ///< 1/s, -damping u_t
+    double density = 1000.0; ///< kg/m^3, for buoyancy
+    double bodyDrag = 0.5;   ///< how strongly water slows what moves through it, 1/s per unit of
+                             ///< submerged fraction
     WaterBorder border = WaterBorder::Reflect;
-    Vec3 centre;                  ///< m; y: the rest level
+    Vec3 centre; ///< m; y: the rest level
 
-    std::vector<double> h;        ///< m, height above the rest level, nx * nz, row (fixed z) by row
-    std::vector<double> v;        ///< m/s, dh/dt
-    std::vector<double> occupied; ///< m, per node: the submerged length of bodies there, last step
+    std::vector<double> h;         ///< m, height above the rest level, nx * nz, row (fixed z) by row
+    std::vector<double> v;         ///< m/s, dh/dt
+    std::vector<double> occupied;  ///< m, per node: the submerged length of bodies there, last step
     std::vector<double> occupying; ///< scratch: the same this step (kept to spare an allocation a step)
-    std::uint32_t substeps = 1;   ///< wave steps per fixed step (more when dt breaks the CFL limit)
+    std::uint32_t substeps = 1;    ///< wave steps per fixed step (more when dt breaks the CFL limit)
 
     double dx() const { return sizeX / double(nx - 1); }
     double dz() const { return sizeZ / double(nz - 1); }

@@ -1,6 +1,6 @@
 #pragma once
-// The small vector and rotation types components use. Plain doubles with no padding, so a component's bytes are its
-// state (the state hash reads them directly) and a std::vector<Vec3> is a packed array.
+// The small vector and rotation types components use. Plain doubles with no padding, so a component's bytes
+// are its state (the state hash reads them directly) and a std::vector<Vec3> is a packed array.
 
 #include <cmath>
 

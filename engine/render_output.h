@@ -20,15 +20,15 @@ struct RenderOutput {
     std::vector<std::string> written; ///< PNG files written so far
     std::string device;               ///< the GL version, renderer and EGL platform used
     // a live window (tumble view) asks for more: its own GL context, its size and camera, and wireframe
-    bool externalContext = false;     ///< a GL ES 3 context is already current: draw with it, make none
+    bool externalContext = false; ///< a GL ES 3 context is already current: draw with it, make none
     /// Otherwise the renderer opens one with this on its first frame (the run's choice: app/gl_context.h's
     /// headless EGL context); it fills the device description and keeps the context open while held.
     std::function<std::shared_ptr<void>(std::string& device)> openContext;
-    int width = 0, height = 0;        ///< the image size; 0: the scene's [render] size
-    bool cameraSet = false;           ///< eye and target below replace the scene's camera
+    int width = 0, height = 0; ///< the image size; 0: the scene's [render] size
+    bool cameraSet = false;    ///< eye and target below replace the scene's camera
     std::array<double, 3> eye{}, target{};
-    bool wireframe = false;           ///< spring networks as springs and masses, cloth included
-    bool keepFrames = true;           ///< false: never write PNG frames (the window shows them)
+    bool wireframe = false; ///< spring networks as springs and masses, cloth included
+    bool keepFrames = true; ///< false: never write PNG frames (the window shows them)
     /// When set, every rendered frame's pixels (RGBA, top row first) go here (the video encoder).
     std::function<void(const std::vector<std::uint8_t>& rgba)> video;
 };

@@ -268,7 +268,8 @@ void ReplayWriter::finish() {
 ReplayFile readReplay(const std::string& path) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) {
-        throw ReplayError(path, 0, std::filesystem::exists(path, ec) ? "is not a regular file" : "no such file");
+        throw ReplayError(path, 0,
+                          std::filesystem::exists(path, ec) ? "is not a regular file" : "no such file");
     }
     const auto size = std::filesystem::file_size(path, ec);
     if (ec || size > kMaxReplayBytes) {
@@ -300,8 +301,8 @@ std::uint64_t parseHeader(const std::string& path, const std::string& bytes, Rep
     file.header.version = top.get<std::uint32_t>("the format version");
     if (file.header.version != kReplayVersion) {
         throw ReplayError(path, 8,
-                          "format version " + std::to_string(file.header.version) + "; this build reads version " +
-                              std::to_string(kReplayVersion));
+                          "format version " + std::to_string(file.header.version) +
+                              "; this build reads version " + std::to_string(kReplayVersion));
     }
     const auto headerBytes = top.get<std::uint32_t>("the header's length");
     const std::uint64_t headerAt = top.offset();
@@ -413,7 +414,8 @@ ReplayFile parseReplay(const std::string& path, const std::string& bytes) {
         }
         if (left < 12) {
             const std::size_t n = std::min<std::size_t>(left, 4);
-            if (std::memcmp(bytes.data() + at, "CHNK", n) != 0 && std::memcmp(bytes.data() + at, "ENDR", n) != 0) {
+            if (std::memcmp(bytes.data() + at, "CHNK", n) != 0 &&
+                std::memcmp(bytes.data() + at, "ENDR", n) != 0) {
                 throw ReplayError(path, at, "expected a chunk or the end marker");
             }
             break; // cut short inside a chunk's head or the end marker

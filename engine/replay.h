@@ -64,8 +64,8 @@ struct ReplayFile {
     ReplayHeader header;
     std::vector<FrameRecord> frames;
     std::vector<std::pair<std::string, std::string>> names; ///< entity name and kind, by id
-    bool complete = false;      ///< ended with the end marker
-    std::uint64_t validBytes = 0; ///< bytes up to the last whole chunk
+    bool complete = false;                                  ///< ended with the end marker
+    std::uint64_t validBytes = 0;                           ///< bytes up to the last whole chunk
     std::uint64_t fileBytes = 0;
 };
 
@@ -97,8 +97,8 @@ private:
 
     std::string m_path;
     std::FILE* m_file = nullptr;
-    std::string m_chunk;        ///< frames not yet written
-    std::string m_names;        ///< names declared in this chunk
+    std::string m_chunk; ///< frames not yet written
+    std::string m_names; ///< names declared in this chunk
     std::uint32_t m_chunkFrames = 0;
     std::uint32_t m_chunkNames = 0;
     std::uint64_t m_frames = 0;

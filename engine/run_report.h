@@ -16,7 +16,8 @@ struct RunReport {
 
 /// A world resource: checks a run makes on itself, asked for on the command line.
 struct RunChecks {
-    bool contact = false; ///< --check-contact: an exact crossing audit of self-colliding cloth after every step
+    bool contact =
+        false; ///< --check-contact: an exact crossing audit of self-colliding cloth after every step
 };
 
 } // namespace tumble

@@ -373,8 +373,8 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
 
 // ---- joints
 
-void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& catalog, const SceneDef& scene,
-                World& world, const std::map<std::string, Entity>& byName) {
+void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
+                const SceneDef& scene, World& world, const std::map<std::string, Entity>& byName) {
     const toml::node* node = root.get("joint");
     if (!node) {
         return;
@@ -401,7 +401,8 @@ void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& 
                 names.push_back(n);
             }
             const std::string near = nearestName(name, names);
-            r.fail(key, "no entity named '" + name + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+            r.fail(key, "no entity named '" + name + "'" +
+                            (near.empty() ? "" : " (did you mean '" + near + "'?)"));
         }
         return found->second;
     };
@@ -444,7 +445,7 @@ std::optional<std::pair<std::string, std::string>> matchAction(const Catalog& ca
                 }
             }
             return std::pair{std::string("action"), "action '" + ev.action + "' does not apply to entity '" +
-                                                         ev.entity + "'; it applies to " + takers};
+                                                        ev.entity + "'; it applies to " + takers};
         }
         const std::string near = nearestName(ev.action, actionNames);
         return std::pair{std::string("action"), "unknown action '" + ev.action + "'" +
@@ -481,7 +482,8 @@ std::optional<std::string> resolveNamedEvent(const Catalog& catalog, const World
     }
     if (ev.target == kNullEntity) {
         const std::string near = nearestName(ev.entity, names);
-        return "no entity named '" + ev.entity + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)");
+        return "no entity named '" + ev.entity + "'" +
+               (near.empty() ? "" : " (did you mean '" + near + "'?)");
     }
     if (auto problem = matchAction(catalog, world, ev, present)) {
         return problem->second;

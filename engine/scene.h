@@ -19,9 +19,9 @@ struct SceneDef {
     std::int64_t frames = 600;                      ///< default run length
     std::array<double, 3> gravity{0.0, -9.81, 0.0}; ///< m/s^2
     std::uint64_t seed = 1;
-    int solverIterations = 10;  ///< Bullet's constraint solver iterations per step
-    int velocityIterations = 8; ///< Box2D's velocity iterations per step
-    int positionIterations = 3; ///< Box2D's position iterations per step
+    int solverIterations = 10;    ///< Bullet's constraint solver iterations per step
+    int velocityIterations = 8;   ///< Box2D's velocity iterations per step
+    int positionIterations = 3;   ///< Box2D's position iterations per step
     double physicsBudgetMs = 8.0; ///< per frame, held to p99 by `tumble budget`
     bool stress = false;          ///< [budget] stress = true: a scene that shows where the budget breaks
     std::array<double, 3> cameraEye{0.0, 1.5, 5.0};

@@ -15,7 +15,8 @@ struct StepContext {
     std::uint64_t frame = 0; ///< index of the frame being produced
     double time = 0.0;       ///< simulated time at the start of this step, s (= step * dt)
     std::uint64_t seed = 1;  ///< the scene seed; derive per-purpose streams with streamSeed()
-    double alpha = 1.0;      ///< frame phase: where the frame falls between the last two fixed steps (1: at the last)
+    double alpha =
+        1.0; ///< frame phase: where the frame falls between the last two fixed steps (1: at the last)
     Profiler* profiler = nullptr; ///< for a system that times its own stages (profileSlot); null when untimed
 };
 

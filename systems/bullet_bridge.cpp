@@ -98,8 +98,8 @@ void setBulletMaterialRules() {
 
 BulletWorld::BulletWorld(const SceneDef& scene) : m_impl(std::make_unique<Impl>()) {
     setBulletMaterialRules();
-    m_impl->world.setGravity(btVector3(btScalar(scene.gravity[0]), btScalar(scene.gravity[1]),
-                                       btScalar(scene.gravity[2])));
+    m_impl->world.setGravity(
+        btVector3(btScalar(scene.gravity[0]), btScalar(scene.gravity[1]), btScalar(scene.gravity[2])));
     m_impl->world.getSolverInfo().m_numIterations = scene.solverIterations;
 }
 
@@ -215,7 +215,8 @@ btTransform jointFrame(const Joint& j) {
 
 } // namespace
 
-std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b) {
+std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j, RigidBody& a,
+                                              RigidBody* b) {
     btRigidBody& ra = *body(a.bodyId);
     btRigidBody& rb = b ? *body(b->bodyId) : btTypedConstraint::getFixedBody();
     const btTransform shared = jointFrame(j);
@@ -288,8 +289,8 @@ RigidBody* jointBody(World& world, Entity e) {
     return b && b->bodyId >= 0 ? b : nullptr;
 }
 
-/// A damped spring between a point of body a and a point of body b (or of the world): F = k (|d| - rest) d/|d|
-/// plus damping on the speed along d, pulling a towards b and b towards a.
+/// A damped spring between a point of body a and a point of body b (or of the world): F = k (|d| - rest)
+/// d/|d| plus damping on the speed along d, pulling a towards b and b towards a.
 void applySpring(BulletWorld::Impl& impl, const Joint& j, const RigidBody& a, const RigidBody* b) {
     const Vec3 pa = a.toWorld(j.localA), pb = b ? b->toWorld(j.localB) : j.localB;
     const Vec3 d = pb - pa;

@@ -4,7 +4,8 @@
 
 namespace tumble {
 
-Aabb triangleBox(const Triangle& t, const std::vector<Vec3>& x, const std::vector<Vec3>& sweep, double inflate) {
+Aabb triangleBox(const Triangle& t, const std::vector<Vec3>& x, const std::vector<Vec3>& sweep,
+                 double inflate) {
     Aabb b;
     for (std::uint32_t i : t) {
         b.add(x[i]);
@@ -58,8 +59,9 @@ std::int32_t Bvh::buildNode(const std::vector<Aabb>& boxes, std::uint32_t first,
         return axis == 0 ? c.x : axis == 1 ? c.y : c.z;
     };
     const std::uint32_t half = count / 2;
-    std::nth_element(m_order.begin() + first, m_order.begin() + first + half, m_order.begin() + first + count,
-                     [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
+    std::nth_element(
+        m_order.begin() + first, m_order.begin() + first + half, m_order.begin() + first + count,
+        [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
     const std::int32_t left = buildNode(boxes, first, half);
     const std::int32_t right = buildNode(boxes, first + half, count - half);
     m_nodes[std::size_t(index)].left = left;

@@ -46,7 +46,8 @@ struct Aabb {
 using Triangle = std::array<std::uint32_t, 3>;
 
 /// A triangle's box: its corners now and after moving by `sweep` (per vertex, may be empty), inflated.
-Aabb triangleBox(const Triangle& t, const std::vector<Vec3>& x, const std::vector<Vec3>& sweep, double inflate);
+Aabb triangleBox(const Triangle& t, const std::vector<Vec3>& x, const std::vector<Vec3>& sweep,
+                 double inflate);
 
 /// The hierarchy; see the header comment.
 class Bvh {
@@ -69,7 +70,7 @@ public:
 private:
     struct Node {
         Aabb box;
-        std::int32_t left = -1;  ///< child nodes, or -1 for a leaf
+        std::int32_t left = -1; ///< child nodes, or -1 for a leaf
         std::int32_t right = -1;
         std::uint32_t first = 0; ///< leaf: its triangles, m_order[first .. first + count)
         std::uint32_t count = 0;

@@ -23,9 +23,10 @@ namespace tumble {
 
 /// The answer of a continuous query.
 struct CcdResult {
-    bool hit = false;    ///< the primitives come within the distance during [0, 1]
-    double toi = 1.0;    ///< the earliest such time (a lower bound within the tolerance), when hit
-    bool capped = false; ///< the search hit its box cap and answered conservatively (hit at the earliest open box)
+    bool hit = false; ///< the primitives come within the distance during [0, 1]
+    double toi = 1.0; ///< the earliest such time (a lower bound within the tolerance), when hit
+    bool capped =
+        false; ///< the search hit its box cap and answered conservatively (hit at the earliest open box)
 };
 
 /// Vertex start[0] -> end[0] against the triangle start[1..3] -> end[1..3].

@@ -93,9 +93,9 @@ struct ClothScratch {
     /// (kDriftFraction of its thickness) plus how far it already is from where its pairs were gathered
     std::vector<double> allow;
     std::vector<std::uint64_t> gatheredAt; ///< the step its pairs were last gathered in
-    std::vector<double> w;            ///< inverse mass for contacts: 0 when pinned
-    std::vector<Vec3> seat;           ///< the outward normal of the collider a mass rests on
-    std::vector<std::uint8_t> seated; ///< 1 when the mass rests on a collider
+    std::vector<double> w;                 ///< inverse mass for contacts: 0 when pinned
+    std::vector<Vec3> seat;                ///< the outward normal of the collider a mass rests on
+    std::vector<std::uint8_t> seated;      ///< 1 when the mass rests on a collider
     std::vector<std::uint32_t> meshOf;
     std::vector<std::uint32_t> vertexOwner; ///< the first triangle that holds the vertex
     std::vector<std::uint32_t> parent;      ///< impact zones: union-find

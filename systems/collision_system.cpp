@@ -199,7 +199,8 @@ void collideSprings(World& world, const StepContext&) {
                     }
                     // the velocity into the surface stops (or bounces by restitution); sliding loses to
                     // friction
-                    const double mu = std::sqrt(body.friction * net.friction); // combined as Box2D and our Bullet do
+                    const double mu =
+                        std::sqrt(body.friction * net.friction); // combined as Box2D and our Bullet do
                     Vec3 vt = relative - n * vn;
                     const double speed = length(vt);
                     const double slowdown = mu * -vn;

@@ -74,7 +74,7 @@ private:
     std::vector<Mat> m_fineDiagInverse;
     std::vector<Level> m_levels;    ///< coarser and coarser; the last is solved directly
     std::vector<double> m_cholesky; ///< dense lower factor of the coarsest operator (or of the fine one)
-    std::vector<double> m_dense;      ///< the coarsest operator before factorisation (for a shifted retry)
+    std::vector<double> m_dense;    ///< the coarsest operator before factorisation (for a shifted retry)
     mutable std::vector<double> m_coarseWork;
     std::vector<Mat3> m_sums; ///< double accumulators of the Galerkin sums
     std::size_t m_coarsestDim = 0;

@@ -28,8 +28,8 @@ std::shared_ptr<const ShapeMesh> readObjMesh(const std::string& file, const std:
     }
     const auto size = fs::file_size(file, ec);
     if (ec || size > kMaxObjBytes) {
-        throw std::runtime_error(displayName + ": larger than a mesh may be (" + std::to_string(kMaxObjBytes >> 20) +
-                                 " MiB)");
+        throw std::runtime_error(displayName + ": larger than a mesh may be (" +
+                                 std::to_string(kMaxObjBytes >> 20) + " MiB)");
     }
     if (size == 0) { // nothing to read (and /proc's files, which say 0, may block a read forever)
         throw std::runtime_error(displayName + ": empty");
@@ -119,7 +119,8 @@ std::shared_ptr<const ShapeMesh> parseObjMesh(const std::string& text, const std
         mesh->hi = {std::max(mesh->hi.x, p.x), std::max(mesh->hi.y, p.y), std::max(mesh->hi.z, p.z)};
     }
     for (const auto& t : mesh->triangles) {
-        const Vec3 n = cross(mesh->vertices[t[1]] - mesh->vertices[t[0]], mesh->vertices[t[2]] - mesh->vertices[t[0]]);
+        const Vec3 n =
+            cross(mesh->vertices[t[1]] - mesh->vertices[t[0]], mesh->vertices[t[2]] - mesh->vertices[t[0]]);
         mesh->faceNormals.push_back(n * (1.0 / length(n)));
     }
     return mesh;
@@ -132,8 +133,9 @@ std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
     // the check below tests every vertex against every face; a hull is a few hundred points at most (Bullet
     // keeps every point of a btConvexHullShape and visits them all in each support query)
     if (file.vertices.size() > kMaxHullVertices) {
-        fail(0, "a convex shape has at most " + std::to_string(kMaxHullVertices) + " vertices (this one has " +
-                    std::to_string(file.vertices.size()) + "); use shape = \"mesh\" for a static one");
+        fail(0, "a convex shape has at most " + std::to_string(kMaxHullVertices) +
+                    " vertices (this one has " + std::to_string(file.vertices.size()) +
+                    "); use shape = \"mesh\" for a static one");
     }
     // a closed convex polyhedron of V vertices has at most 2V - 4 triangles; more means repeated faces
     if (file.triangles.size() + 4 > 2 * file.vertices.size()) {
@@ -153,7 +155,8 @@ std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
     }
     if (!(volume > 0.0)) {
         fail(0, "a convex shape must be a closed hull with its faces counter-clockwise seen from outside "
-                "(its volume comes out " + std::to_string(volume) + " m^3)");
+                "(its volume comes out " +
+                    std::to_string(volume) + " m^3)");
     }
     const Vec3 centre = moment * (1.0 / volume);
     const double size = length(file.hi - file.lo);
@@ -161,8 +164,9 @@ std::shared_ptr<const ShapeMesh> convexHullMesh(const ShapeMesh& file) {
         const Vec3& on = file.vertices[file.triangles[f][0]];
         for (const Vec3& p : file.vertices) {
             if (dot(p - on, file.faceNormals[f]) > 1e-6 * size) {
-                fail(file.faceLines[f], "this face has points of the shape in front of it: a convex shape must "
-                                        "be its own convex hull, faces counter-clockwise seen from outside");
+                fail(file.faceLines[f],
+                     "this face has points of the shape in front of it: a convex shape must "
+                     "be its own convex hull, faces counter-clockwise seen from outside");
             }
         }
     }

@@ -30,7 +30,8 @@ std::shared_ptr<const ShapeMesh> loadMesh(TableReader& r, World& world, bool con
     const std::string name = r.requiredString("mesh");
     const std::string file = findMeshFile(name, r.context().file);
     if (file.empty()) {
-        r.fail("mesh", "mesh file '" + name + "' not found (looked next to the scenario and under the project root)");
+        r.fail("mesh",
+               "mesh file '" + name + "' not found (looked next to the scenario and under the project root)");
     }
     MeshCache* cache = world.tryResource<MeshCache>();
     if (!cache) {
@@ -119,7 +120,8 @@ void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&)
     b.color = vec(
         r.vector<3>("color", plane ? std::array{0.55, 0.57, 0.52} : std::array{0.62, 0.60, 0.56}, 0.0, 1.0));
     // the entity's position places the shape as its file has it; the body's centre is its centre of mass
-    b.position = world.get<Transform>(entity).position + (b.mesh ? rotate(b.orientation, b.mesh->centre) : Vec3{});
+    b.position =
+        world.get<Transform>(entity).position + (b.mesh ? rotate(b.orientation, b.mesh->centre) : Vec3{});
     world.emplace<RigidBody>(entity, b);
 }
 
@@ -143,7 +145,8 @@ std::vector<Vec2> readPolygon(TableReader& r) {
         const Vec2& q = v[(i + 1) % v.size()];
         twiceArea += p[0] * q[1] - q[0] * p[1];
         if (std::hypot(q[0] - p[0], q[1] - p[1]) < 0.01) {
-            r.fail("vertices", "vertices " + std::to_string(i) + " and " + std::to_string((i + 1) % v.size()) +
+            r.fail("vertices", "vertices " + std::to_string(i) + " and " +
+                                   std::to_string((i + 1) % v.size()) +
                                    " are closer than 1 cm (Box2D would merge them)");
         }
     }
@@ -159,9 +162,10 @@ std::vector<Vec2> readPolygon(TableReader& r) {
         const Vec2& c = v[(i + 2) % v.size()];
         const double turn = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
         if (turn <= 0.0) {
-            r.fail("vertices", "the polygon is not convex at vertex " + std::to_string((i + 1) % v.size()) +
-                                   " (Box2D takes convex polygons; split a concave one into bodies joined by a "
-                                   "fixed joint)");
+            r.fail("vertices",
+                   "the polygon is not convex at vertex " + std::to_string((i + 1) % v.size()) +
+                       " (Box2D takes convex polygons; split a concave one into bodies joined by a "
+                       "fixed joint)");
         }
     }
     return v;
@@ -174,8 +178,8 @@ void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef
     }
     RigidBody2D b;
     const std::string shape = r.choice("shape", "box", {"box", "circle", "polygon", "edge"});
-    b.shape = shape == "box"      ? Shape2DKind::Box
-              : shape == "circle" ? Shape2DKind::Circle
+    b.shape = shape == "box"       ? Shape2DKind::Box
+              : shape == "circle"  ? Shape2DKind::Circle
               : shape == "polygon" ? Shape2DKind::Polygon
                                    : Shape2DKind::Edge;
     switch (b.shape) {
@@ -318,7 +322,8 @@ void loadJoint(TableReader& r, World& world, const SceneDef& scene, const Entity
         }
         const double len = j.twoD && j.kind == JointKind::Slider ? std::hypot(axis.x, axis.y) : length(axis);
         if (len < 1e-9) {
-            r.fail("axis", j.twoD ? "a 2D slider's 'axis' must have an x or y part" : "'axis' must not be zero");
+            r.fail("axis",
+                   j.twoD ? "a 2D slider's 'axis' must have an x or y part" : "'axis' must not be zero");
         }
         j.axis = axis * (1.0 / length(axis));
         if (r.has("limits")) {
@@ -344,14 +349,15 @@ void loadJoint(TableReader& r, World& world, const SceneDef& scene, const Entity
         j.rest = r.number("rest", j.twoD ? std::hypot(span.x, span.y) : length(span), 0.0, kHuge);
         if (!j.twoD) {
             // Bullet takes the spring as a force, explicitly: stable while the step is short beside the
-            // period of the lighter end, omega dt < 2; refuse what would blow up (with a factor of 2 to spare)
-            const double mass = std::min(a3->dynamic() ? a3->mass : 1e300,
-                                         b3 && b3->dynamic() ? b3->mass : 1e300);
+            // period of the lighter end, omega dt < 2; refuse what would blow up (with a factor of 2 to
+            // spare)
+            const double mass =
+                std::min(a3->dynamic() ? a3->mass : 1e300, b3 && b3->dynamic() ? b3->mass : 1e300);
             const double omegaDt = std::sqrt(j.stiffness / mass) * scene.dt;
             if (omegaDt > 1.0 || j.damping * scene.dt / mass > 1.0) {
                 r.fail("stiffness", "this spring is too stiff (or too damped) for the step: with " +
-                                        std::to_string(mass) + " kg at its lighter end and dt = " +
-                                        std::to_string(scene.dt) +
+                                        std::to_string(mass) +
+                                        " kg at its lighter end and dt = " + std::to_string(scene.dt) +
                                         " s it would blow up (a 3D spring joint is a force taken explicitly, "
                                         "stable while sqrt(k/m) dt < 1 here); lower 'stiffness' or the step");
             }
@@ -359,7 +365,8 @@ void loadJoint(TableReader& r, World& world, const SceneDef& scene, const Entity
     } else {
         for (const char* key : {"pivot_b", "stiffness", "damping", "rest"}) {
             if (r.has(key)) {
-                r.fail(key, "'" + std::string(key) + "' belongs to spring joints, not to a " + type + " joint");
+                r.fail(key,
+                       "'" + std::string(key) + "' belongs to spring joints, not to a " + type + " joint");
             }
         }
     }
@@ -413,8 +420,8 @@ bool isRigid2D(const World& w, Entity e) {
 }
 
 template <class Body>
-std::optional<std::string> checkVelocityEvent(const World& w, Entity e, const EventDef& ev, std::size_t linear,
-                                              std::size_t withAngular) {
+std::optional<std::string> checkVelocityEvent(const World& w, Entity e, const EventDef& ev,
+                                              std::size_t linear, std::size_t withAngular) {
     if (!w.get<Body>(e).dynamic()) {
         return "the body is static (mass = 0) and cannot be pushed";
     }
@@ -427,49 +434,65 @@ std::optional<std::string> checkVelocityEvent(const World& w, Entity e, const Ev
 
 void registerRigidEvents(Catalog& catalog) {
     // impulse: N s at the centre of mass (and, with six numbers, N m s about it)
-    catalog.addEventAction(
-        {"impulse", "a rigid body", {"value"}, isRigid,
-         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody>(w, e, ev, 3, 6); },
-         [](World& w, Entity e, const EventDef& ev) {
-             RigidBody& b = w.get<RigidBody>(e);
-             b.impulse += Vec3{ev.value[0], ev.value[1], ev.value[2]};
-             if (ev.value.size() == 6) {
-                 b.angularImpulse += Vec3{ev.value[3], ev.value[4], ev.value[5]};
-             }
-         }});
-    catalog.addEventAction(
-        {"set_velocity", "a rigid body", {"value"}, isRigid,
-         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody>(w, e, ev, 3, 6); },
-         [](World& w, Entity e, const EventDef& ev) {
-             RigidBody& b = w.get<RigidBody>(e);
-             b.linearVelocity = {ev.value[0], ev.value[1], ev.value[2]};
-             if (ev.value.size() == 6) {
-                 b.angularVelocity = {ev.value[3], ev.value[4], ev.value[5]};
-             }
-             b.teleported = true;
-         }});
-    catalog.addEventAction(
-        {"impulse", "a 2D rigid body", {"value"}, isRigid2D,
-         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody2D>(w, e, ev, 2, 3); },
-         [](World& w, Entity e, const EventDef& ev) {
-             RigidBody2D& b = w.get<RigidBody2D>(e);
-             b.impulse[0] += ev.value[0];
-             b.impulse[1] += ev.value[1];
-             if (ev.value.size() == 3) {
-                 b.angularImpulse += ev.value[2];
-             }
-         }});
-    catalog.addEventAction(
-        {"set_velocity", "a 2D rigid body", {"value"}, isRigid2D,
-         [](const World& w, Entity e, const EventDef& ev) { return checkVelocityEvent<RigidBody2D>(w, e, ev, 2, 3); },
-         [](World& w, Entity e, const EventDef& ev) {
-             RigidBody2D& b = w.get<RigidBody2D>(e);
-             b.velocity = {ev.value[0], ev.value[1]};
-             if (ev.value.size() == 3) {
-                 b.angularVelocity = ev.value[2];
-             }
-             b.teleported = true;
-         }});
+    catalog.addEventAction({"impulse",
+                            "a rigid body",
+                            {"value"},
+                            isRigid,
+                            [](const World& w, Entity e, const EventDef& ev) {
+                                return checkVelocityEvent<RigidBody>(w, e, ev, 3, 6);
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                RigidBody& b = w.get<RigidBody>(e);
+                                b.impulse += Vec3{ev.value[0], ev.value[1], ev.value[2]};
+                                if (ev.value.size() == 6) {
+                                    b.angularImpulse += Vec3{ev.value[3], ev.value[4], ev.value[5]};
+                                }
+                            }});
+    catalog.addEventAction({"set_velocity",
+                            "a rigid body",
+                            {"value"},
+                            isRigid,
+                            [](const World& w, Entity e, const EventDef& ev) {
+                                return checkVelocityEvent<RigidBody>(w, e, ev, 3, 6);
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                RigidBody& b = w.get<RigidBody>(e);
+                                b.linearVelocity = {ev.value[0], ev.value[1], ev.value[2]};
+                                if (ev.value.size() == 6) {
+                                    b.angularVelocity = {ev.value[3], ev.value[4], ev.value[5]};
+                                }
+                                b.teleported = true;
+                            }});
+    catalog.addEventAction({"impulse",
+                            "a 2D rigid body",
+                            {"value"},
+                            isRigid2D,
+                            [](const World& w, Entity e, const EventDef& ev) {
+                                return checkVelocityEvent<RigidBody2D>(w, e, ev, 2, 3);
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                RigidBody2D& b = w.get<RigidBody2D>(e);
+                                b.impulse[0] += ev.value[0];
+                                b.impulse[1] += ev.value[1];
+                                if (ev.value.size() == 3) {
+                                    b.angularImpulse += ev.value[2];
+                                }
+                            }});
+    catalog.addEventAction({"set_velocity",
+                            "a 2D rigid body",
+                            {"value"},
+                            isRigid2D,
+                            [](const World& w, Entity e, const EventDef& ev) {
+                                return checkVelocityEvent<RigidBody2D>(w, e, ev, 2, 3);
+                            },
+                            [](World& w, Entity e, const EventDef& ev) {
+                                RigidBody2D& b = w.get<RigidBody2D>(e);
+                                b.velocity = {ev.value[0], ev.value[1]};
+                                if (ev.value.size() == 3) {
+                                    b.angularVelocity = ev.value[2];
+                                }
+                                b.teleported = true;
+                            }});
 }
 
 } // namespace

@@ -16,8 +16,8 @@ namespace {
 
 constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of the CFL limit at most
 constexpr int kMaxNodes = 2048;    ///< per side
-constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22;  ///< all surfaces: 4M (2048 x 2048)
-constexpr double kMaxNodeStepsPerStep = 1e8; ///< wave-step node updates in one fixed step
+constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22; ///< all surfaces: 4M (2048 x 2048)
+constexpr double kMaxNodeStepsPerStep = 1e8;                    ///< wave-step node updates in one fixed step
 
 /// Water nodes loaded so far in the scene (a load-time tally).
 struct WaterNodes {
@@ -46,12 +46,14 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
     w.centre = world.get<Transform>(entity).position;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
     // bounded work and memory: wave steps a fixed step from the CFL limit, nodes across the scene
-    const double courant = w.waveSpeed * scene.dt * std::sqrt(1.0 / (w.dx() * w.dx()) + 1.0 / (w.dz() * w.dz()));
+    const double courant =
+        w.waveSpeed * scene.dt * std::sqrt(1.0 / (w.dx() * w.dx()) + 1.0 / (w.dz() * w.dz()));
     const double substeps = std::ceil(courant / kCflSafety);
     if (substeps * double(n) > kMaxNodeStepsPerStep) {
-        r.fail("wave_speed", "this grid would need " + std::to_string(std::int64_t(substeps)) +
-                                 " wave steps (CFL) of " + std::to_string(n) +
-                                 " nodes every fixed step; make the cells larger, the waves slower or dt smaller");
+        r.fail("wave_speed",
+               "this grid would need " + std::to_string(std::int64_t(substeps)) + " wave steps (CFL) of " +
+                   std::to_string(n) +
+                   " nodes every fixed step; make the cells larger, the waves slower or dt smaller");
     }
     WaterNodes* total = world.tryResource<WaterNodes>();
     if (!total) {
@@ -84,14 +86,16 @@ void waveStep(Water& w, double dt) {
         const double* below = h + std::size_t(k > 0 ? k - 1 : 1) * nx;
         const double* above = h + std::size_t(k < nz - 1 ? k + 1 : nz - 2) * nx;
         double* vr = v + std::size_t(k) * nx;
-        vr[0] = keep * vr[0] + dt * (ax * 2.0 * (row[1] - row[0]) + az * (below[0] + above[0] - 2.0 * row[0]));
+        vr[0] =
+            keep * vr[0] + dt * (ax * 2.0 * (row[1] - row[0]) + az * (below[0] + above[0] - 2.0 * row[0]));
         for (int i = 1; i < nx - 1; ++i) {
-            const double lap = ax * (row[i - 1] + row[i + 1] - 2.0 * row[i]) +
-                               az * (below[i] + above[i] - 2.0 * row[i]);
+            const double lap =
+                ax * (row[i - 1] + row[i + 1] - 2.0 * row[i]) + az * (below[i] + above[i] - 2.0 * row[i]);
             vr[i] = keep * vr[i] + dt * lap;
         }
         const int e = nx - 1;
-        vr[e] = keep * vr[e] + dt * (ax * 2.0 * (row[e - 1] - row[e]) + az * (below[e] + above[e] - 2.0 * row[e]));
+        vr[e] = keep * vr[e] +
+                dt * (ax * 2.0 * (row[e - 1] - row[e]) + az * (below[e] + above[e] - 2.0 * row[e]));
     }
     if (w.border == WaterBorder::Absorb) {
         // the border moves as a wave leaving it would: u_t = -c du/dn (n outward), from the slope inside
@@ -116,8 +120,8 @@ void waveStep(Water& w, double dt) {
 /// The vertical extent of a body's column at world (x, z), and how much of the node's cell it covers, or
 /// false when the column misses it. Spheres by the node's point; other shapes by their world-aligned
 /// bounding box, with the cell's covered share (exact for an upright box).
-bool columnOf(const RigidBody& b, double x, double z, double halfDx, double halfDz, double& bottom, double& top,
-              double& cover) {
+bool columnOf(const RigidBody& b, double x, double z, double halfDx, double halfDz, double& bottom,
+              double& top, double& cover) {
     cover = 1.0;
     if (b.shape == ShapeKind::Sphere) {
         const double dx = x - b.position.x, dz = z - b.position.z, d2 = dx * dx + dz * dz;
@@ -232,9 +236,11 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         // node indices, clamped in double first (a body far away must not overflow an int)
         auto index = [](double at, int last) { return int(std::clamp(at, -1.0, double(last) + 1.0)); };
         const int i0 = std::max(0, index(std::floor((b.position.x - reach - w.nodeX(0)) / w.dx()), w.nx));
-        const int i1 = std::min(w.nx - 1, index(std::ceil((b.position.x + reach - w.nodeX(0)) / w.dx()), w.nx));
+        const int i1 =
+            std::min(w.nx - 1, index(std::ceil((b.position.x + reach - w.nodeX(0)) / w.dx()), w.nx));
         const int k0 = std::max(0, index(std::floor((b.position.z - reach - w.nodeZ(0)) / w.dz()), w.nz));
-        const int k1 = std::min(w.nz - 1, index(std::ceil((b.position.z + reach - w.nodeZ(0)) / w.dz()), w.nz));
+        const int k1 =
+            std::min(w.nz - 1, index(std::ceil((b.position.z + reach - w.nodeZ(0)) / w.dz()), w.nz));
         double volume = 0.0;
         Vec3 centre;
         for (int k = k0; k <= k1; ++k) {
@@ -321,7 +327,8 @@ void stepWater(World& world, const StepContext& ctx) {
         const auto substeps = std::uint32_t(std::max(1.0, std::ceil(courant / kCflSafety)));
         if (substeps > 1 && w.substeps == 1) {
             world.resource<RunReport>().notes.push_back(
-                "water '" + name.value + "': dt is above the stability (CFL) limit of its grid (Courant number " +
+                "water '" + name.value +
+                "': dt is above the stability (CFL) limit of its grid (Courant number " +
                 std::to_string(courant) + "); it takes " + std::to_string(substeps) + " wave steps per step");
         }
         w.substeps = substeps;

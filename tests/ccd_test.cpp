@@ -179,7 +179,8 @@ TEST(Ccd, NeverLaterThanBruteForceOnRandomMotions) {
             }
         }
         const double distance = 0.01;
-        const CcdResult r = vt ? vertexTriangleCcd(m.start, m.end, distance) : edgeEdgeCcd(m.start, m.end, distance);
+        const CcdResult r =
+            vt ? vertexTriangleCcd(m.start, m.end, distance) : edgeEdgeCcd(m.start, m.end, distance);
         double first = -1.0;
         const int samples = 2000;
         for (int s = 0; s <= samples; ++s) {
@@ -200,7 +201,8 @@ TEST(Ccd, NeverLaterThanBruteForceOnRandomMotions) {
         if (r.hit && !r.capped) {
             // what it reports is real: within sqrt(3) * distance (the box test is per coordinate) and the
             // tolerance, at the time it reports
-            EXPECT_LT(distanceAt(m, vt, r.toi), std::sqrt(3.0) * distance + 2e-3) << "trial " << trial << (r.capped ? " capped" : "");
+            EXPECT_LT(distanceAt(m, vt, r.toi), std::sqrt(3.0) * distance + 2e-3)
+                << "trial " << trial << (r.capped ? " capped" : "");
         }
     }
     EXPECT_GT(contacts, 300) << "the random motions must meet often enough to test something";

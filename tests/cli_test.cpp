@@ -259,8 +259,8 @@ TEST(Cli, TerminatedRunStopsAtAFrameAndKeepsItsOutputs) {
 TEST(Cli, BudgetFailsASceneMadeDeliberatelySlowAndPassesAGenerousOne) {
     // the curtain held to a microsecond of physics a frame: over budget, exit 3, said so
     const std::string chart = tempPath("budget.svg");
-    auto r = runTumble({"budget", "curtain", "--frames", "20", "--physics-ms", "0.001", "--scale", "1", "--quiet",
-                        "--chart", chart});
+    auto r = runTumble({"budget", "curtain", "--frames", "20", "--physics-ms", "0.001", "--scale", "1",
+                        "--quiet", "--chart", chart});
     EXPECT_EQ(r.exitCode, 3) << r.err;
     EXPECT_NE(r.err.find("over its physics budget"), std::string::npos) << r.err;
     EXPECT_NE(r.out.find("springs"), std::string::npos) << "a table of every system" << r.out;
@@ -280,9 +280,10 @@ TEST(Cli, BudgetFailsASceneMadeDeliberatelySlowAndPassesAGenerousOne) {
 TEST(Cli, RealtimeNeverTakesMoreThanTheCappedStepsAFrame) {
     // a 150 x 150 implicit cloth at four steps a frame: far more physics than a 60 fps frame holds, so the
     // loop must cap the steps, drop time, and say so
-    const auto r = runTumble({"run", "curtain", "--realtime", "--frames", "12", "--no-render", "--out",
-                              tempPath("rt"), "--set", "curtain.cloth.rows=150", "--set", "curtain.cloth.cols=150",
-                              "--set", "scene.dt=0.004166666667", "--set", "scene.substeps=4"});
+    const auto r =
+        runTumble({"run", "curtain", "--realtime", "--frames", "12", "--no-render", "--out", tempPath("rt"),
+                   "--set", "curtain.cloth.rows=150", "--set", "curtain.cloth.cols=150", "--set",
+                   "scene.dt=0.004166666667", "--set", "scene.substeps=4"});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("at most 4 steps a frame (the cap is 4)"), std::string::npos) << r.err;
     const std::size_t at = r.err.find("s of simulated time dropped");

@@ -84,7 +84,8 @@ struct Colliders {
         }
         if (box) {
             const Vec3 q = p - boxCentre;
-            d = std::max(d, std::min({boxHalf.x - std::abs(q.x), boxHalf.y - std::abs(q.y), boxHalf.z - std::abs(q.z)}));
+            d = std::max(d, std::min({boxHalf.x - std::abs(q.x), boxHalf.y - std::abs(q.y),
+                                      boxHalf.z - std::abs(q.z)}));
         }
         return d;
     }
@@ -98,7 +99,8 @@ struct Outcome {
 };
 
 /// Runs the scene step by step and judges every step.
-Outcome judge(const std::string& text, const std::vector<std::string>& cloths, const Colliders& colliders, int frames) {
+Outcome judge(const std::string& text, const std::vector<std::string>& cloths, const Colliders& colliders,
+              int frames) {
     auto sim = test::simulate(text);
     std::vector<const SpringNetwork*> nets;
     std::vector<test::Surface> surfaces;
@@ -145,7 +147,9 @@ TEST_P(RandomDrop, NeverCrossesAfterAnyStep) {
     }
     {
         std::mt19937 rng(std::uint32_t(seed) * 7919u);
-        auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+        auto uniform = [&](double lo, double hi) {
+            return std::uniform_real_distribution<double>(lo, hi)(rng);
+        };
         auto integer = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
         Colliders col;
         std::ostringstream s;
@@ -161,15 +165,16 @@ TEST_P(RandomDrop, NeverCrossesAfterAnyStep) {
             col.ballRadius = uniform(0.2, 0.4);
             col.ballCentre = {uniform(-0.1, 0.1), col.ballRadius, uniform(-0.1, 0.1)};
             s << "[[entity]]\nname = \"ball\"\n[entity.transform]\nposition = [" << col.ballCentre.x << ", "
-              << col.ballCentre.y << ", " << col.ballCentre.z << "]\n[entity.rigid_body]\nshape = \"sphere\"\nradius = "
-              << col.ballRadius << "\n";
+              << col.ballCentre.y << ", " << col.ballCentre.z
+              << "]\n[entity.rigid_body]\nshape = \"sphere\"\nradius = " << col.ballRadius << "\n";
         } else if (what == 2) {
             col.box = true;
             col.boxHalf = {uniform(0.15, 0.3), uniform(0.1, 0.25), uniform(0.15, 0.3)};
             col.boxCentre = {uniform(-0.1, 0.1), col.boxHalf.y, uniform(-0.1, 0.1)};
             s << "[[entity]]\nname = \"table\"\n[entity.transform]\nposition = [" << col.boxCentre.x << ", "
-              << col.boxCentre.y << ", " << col.boxCentre.z << "]\n[entity.rigid_body]\nshape = \"box\"\nhalf_extents = ["
-              << col.boxHalf.x << ", " << col.boxHalf.y << ", " << col.boxHalf.z << "]\n";
+              << col.boxCentre.y << ", " << col.boxCentre.z
+              << "]\n[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [" << col.boxHalf.x << ", "
+              << col.boxHalf.y << ", " << col.boxHalf.z << "]\n";
         }
         const int clothCount = integer(1, 3);
         std::vector<std::string> names;
@@ -179,9 +184,10 @@ TEST_P(RandomDrop, NeverCrossesAfterAnyStep) {
             const double spacing = size / (n - 1);
             const double thickness = uniform(0.3, 0.9) * spacing;
             names.push_back("cloth" + std::to_string(c));
-            s << "[[entity]]\nname = \"" << names.back() << "\"\n[entity.transform]\nposition = [" << uniform(-0.25, 0.25)
-              << ", " << 0.9 + 0.25 * c + uniform(0.0, 0.1) << ", " << uniform(-0.25, 0.25) << "]\n[entity.cloth]\nrows = "
-              << n << "\ncols = " << n << "\nsize = [" << size << ", " << size
+            s << "[[entity]]\nname = \"" << names.back() << "\"\n[entity.transform]\nposition = ["
+              << uniform(-0.25, 0.25) << ", " << 0.9 + 0.25 * c + uniform(0.0, 0.1) << ", "
+              << uniform(-0.25, 0.25) << "]\n[entity.cloth]\nrows = " << n << "\ncols = " << n << "\nsize = ["
+              << size << ", " << size
               << "]\nplane = \"xz\"\nstretch = 3000.0\nshear = 300.0\nbend = " << uniform(0.1, 5.0)
               << "\npin = \"none\"\nintegrator = \"implicit_euler\"\nthickness = " << thickness
               << "\nself_collision = true\n";
@@ -189,9 +195,10 @@ TEST_P(RandomDrop, NeverCrossesAfterAnyStep) {
         // kept, so that a failure can be run again: tumble run FILE --check-contact
         const std::string file = test::writeTemp("drop_" + std::to_string(seed) + ".toml", s.str());
         const Outcome o = judge(s.str(), names, col, 240);
-        EXPECT_EQ(o.worstCrossings, 0) << "seed " << seed << ": first at step " << o.stepOfFirst << " (" << file << ")";
-        EXPECT_LE(o.deepest, 1e-9) << "seed " << seed << ": a mass deeper than its thickness in a collider (" << file
-                                   << ")";
+        EXPECT_EQ(o.worstCrossings, 0)
+            << "seed " << seed << ": first at step " << o.stepOfFirst << " (" << file << ")";
+        EXPECT_LE(o.deepest, 1e-9) << "seed " << seed << ": a mass deeper than its thickness in a collider ("
+                                   << file << ")";
         EXPECT_EQ(o.steps, 480u);
     }
 }
@@ -217,7 +224,8 @@ TEST_P(SelfCollidingDemo, NeverCrossesAfterAnyStep) {
     EXPECT_LE(o.deepest, 1e-9);
 }
 
-INSTANTIATE_TEST_SUITE_P(Demos, SelfCollidingDemo, ::testing::Values("pile", "drape_sphere", "tablecloth", "twist"),
+INSTANTIATE_TEST_SUITE_P(Demos, SelfCollidingDemo,
+                         ::testing::Values("pile", "drape_sphere", "tablecloth", "twist"),
                          [](const auto& param) { return std::string(param.param); });
 
 // ---- the candidate lists keep their promise -------------------------------------------------------------
@@ -286,11 +294,12 @@ shape = "sphere"
 radius = 0.25
 )";
     // (name, height, masses a side, size, thickness: 0.6 of the spacing)
-    for (const auto& [name, y, n, size, h] : {std::tuple{"lower", 0.7, 14, 0.8, 0.037}, {"upper", 0.9, 12, 0.7, 0.025}}) {
+    for (const auto& [name, y, n, size, h] :
+         {std::tuple{"lower", 0.7, 14, 0.8, 0.037}, {"upper", 0.9, 12, 0.7, 0.025}}) {
         std::ostringstream cloth;
         cloth << "[[entity]]\nname = \"" << name << "\"\n[entity.transform]\nposition = [0.05, " << y
-              << ", 0.02]\n[entity.cloth]\nrows = " << n << "\ncols = " << n << "\nsize = [" << size << ", " << size
-              << "]\nplane = \"xz\"\nstretch = 3000.0\nshear = 300.0\nbend = 0.5\npin = \"none\"\n"
+              << ", 0.02]\n[entity.cloth]\nrows = " << n << "\ncols = " << n << "\nsize = [" << size << ", "
+              << size << "]\nplane = \"xz\"\nstretch = 3000.0\nshear = 300.0\nbend = 0.5\npin = \"none\"\n"
               << "integrator = \"implicit_euler\"\nthickness = " << h << "\nself_collision = true\n";
         text += cloth.str();
     }

@@ -2,18 +2,19 @@
 // The tests' own judge of cloth contact, written apart from the code under test: an orientation-sign test
 // of triangle-triangle intersection (two triangles meet when an edge of one meets the other, coplanar
 // cases included; the signs exact, by GMP rationals where doubles cannot decide: a sheet lying flat is
-// coplanar to the last bit, and long double signs there were noise that saw 172 crossings in a flat cloth), a sort-and-sweep broad phase, and the depth of a mass inside the analytic colliders the
-// test scenes use. tests/cloth_contact_test.cpp checks it against hand-made cases and against CGAL.
+// coplanar to the last bit, and long double signs there were noise that saw 172 crossings in a flat cloth), a
+// sort-and-sweep broad phase, and the depth of a mass inside the analytic colliders the test scenes use.
+// tests/cloth_contact_test.cpp checks it against hand-made cases and against CGAL.
 
 #include "engine/math.h"
 
 #include <gmp.h>
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
 #include <array>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace tumble::test {
@@ -94,10 +95,11 @@ inline int orient2(double ax, double ay, double bx, double by, double cx, double
 }
 
 /// Do segments pq and rs of a plane meet (touching counts)?
-inline bool segmentsMeet2(const double p[2], const double q[2], const double r[2],
-                          const double s[2]) {
-    const int o1 = orient2(p[0], p[1], q[0], q[1], r[0], r[1]), o2 = orient2(p[0], p[1], q[0], q[1], s[0], s[1]);
-    const int o3 = orient2(r[0], r[1], s[0], s[1], p[0], p[1]), o4 = orient2(r[0], r[1], s[0], s[1], q[0], q[1]);
+inline bool segmentsMeet2(const double p[2], const double q[2], const double r[2], const double s[2]) {
+    const int o1 = orient2(p[0], p[1], q[0], q[1], r[0], r[1]),
+              o2 = orient2(p[0], p[1], q[0], q[1], s[0], s[1]);
+    const int o3 = orient2(r[0], r[1], s[0], s[1], p[0], p[1]),
+              o4 = orient2(r[0], r[1], s[0], s[1], q[0], q[1]);
     if (o1 * o2 < 0 && o3 * o4 < 0) {
         return true;
     }
@@ -123,8 +125,8 @@ inline bool segmentMeetsTriangle(const Vec3& p, const Vec3& q, const Vec3& a, co
     // all in one plane: drop the axis the plane faces most, then test in 2D
     const Vec3 n = cross(b - a, c - a);
     const int drop = std::abs(n.x) >= std::abs(n.y) && std::abs(n.x) >= std::abs(n.z) ? 0
-                     : std::abs(n.y) >= std::abs(n.z)                                  ? 1
-                                                                                       : 2;
+                     : std::abs(n.y) >= std::abs(n.z)                                 ? 1
+                                                                                      : 2;
     auto flat = [drop](const Vec3& v, double out[2]) {
         const double c3[3] = {v.x, v.y, v.z};
         int k = 0;

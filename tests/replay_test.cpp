@@ -10,9 +10,9 @@
 
 #include <csignal>
 #include <cstring>
-#include <sys/wait.h>
 #include <filesystem>
 #include <fstream>
+#include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
 
@@ -39,7 +39,8 @@ TEST(Replay, ARecordingVerifiesBitForBit) {
         EXPECT_FALSE(f.entities.empty());
     }
     EXPECT_EQ(events, 1u) << "the pendulum demo's scripted impulse was recorded";
-    const auto r = test::runTumble({"replay", path, "--verify", "--no-render", "--out", test::tempPath("v_out")});
+    const auto r =
+        test::runTumble({"replay", path, "--verify", "--no-render", "--out", test::tempPath("v_out")});
     EXPECT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("replay verified: 150 frames"), std::string::npos) << r.err;
 }
@@ -63,8 +64,8 @@ TEST(Replay, EveryFlippedByteIsCaughtAndLocated) {
     // and through the program: exit 2 with the offset
     std::string damaged = bytes;
     damaged[bytes.size() / 2] = static_cast<char>(damaged[bytes.size() / 2] ^ 0x01);
-    const auto r = test::runTumble({"replay", test::writeTemp("flipped2.tumble", damaged), "--verify", "--no-render",
-                                    "--out", test::tempPath("f_out")});
+    const auto r = test::runTumble({"replay", test::writeTemp("flipped2.tumble", damaged), "--verify",
+                                    "--no-render", "--out", test::tempPath("f_out")});
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_NE(r.err.find("at byte"), std::string::npos) << r.err;
 }
@@ -91,7 +92,8 @@ TEST(Replay, AFileCutShortPlaysUpToItsLastWholeChunk) {
     }
     EXPECT_EQ(lastFrames, 40u) << "cut inside the end marker, every chunk is whole";
     const std::string cut = test::writeTemp("cut_run.tumble", bytes.substr(0, bytes.size() * 2 / 3));
-    const auto r = test::runTumble({"replay", cut, "--verify", "--no-render", "--out", test::tempPath("c_out")});
+    const auto r =
+        test::runTumble({"replay", cut, "--verify", "--no-render", "--out", test::tempPath("c_out")});
     EXPECT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("cut short"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("replay verified"), std::string::npos) << r.err;
@@ -119,7 +121,8 @@ TEST(Replay, AnAlteredScenarioDivergesAndIsNamed) {
         }
         w.finish();
     }
-    const auto r = test::runTumble({"replay", altered, "--verify", "--no-render", "--out", test::tempPath("a_out")});
+    const auto r =
+        test::runTumble({"replay", altered, "--verify", "--no-render", "--out", test::tempPath("a_out")});
     EXPECT_EQ(r.exitCode, 4) << r.err;
     EXPECT_NE(r.err.find("diverged at frame 1:"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("springs state"), std::string::npos) << r.err;
@@ -137,7 +140,8 @@ TEST(Replay, AKilledRecordingVerifiesUpToWhereItStopped) {
         ::_exit(127);
     }
     // wait until some chunks are on disk, then kill it without warning
-    for (int i = 0; i < 200 && (!std::filesystem::exists(path) || std::filesystem::file_size(path) < 20000); ++i) {
+    for (int i = 0; i < 200 && (!std::filesystem::exists(path) || std::filesystem::file_size(path) < 20000);
+         ++i) {
         std::this_thread::sleep_for(std::chrono::milliseconds(25));
     }
     ::kill(child, SIGKILL);
@@ -146,24 +150,27 @@ TEST(Replay, AKilledRecordingVerifiesUpToWhereItStopped) {
     const ReplayFile f = readReplay(path);
     EXPECT_FALSE(f.complete);
     EXPECT_GT(f.frames.size(), 0u);
-    const auto r = test::runTumble({"replay", path, "--verify", "--no-render", "--out", test::tempPath("k2_out")});
+    const auto r =
+        test::runTumble({"replay", path, "--verify", "--no-render", "--out", test::tempPath("k2_out")});
     EXPECT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_NE(r.err.find("replay verified: " + std::to_string(f.frames.size()) + " frames"), std::string::npos)
+    EXPECT_NE(r.err.find("replay verified: " + std::to_string(f.frames.size()) + " frames"),
+              std::string::npos)
         << r.err;
 }
 
 TEST(Replay, ExternalInputIsAppliedAndRecordedLikeScriptedEvents) {
     const std::string input = test::writeTemp(
-        "input.jsonl", "{\"frame\": 10, \"entity\": \"chain\", \"action\": \"impulse\", \"value\": [0, 0, 3]}\n"
-                       "\n"
-                       "{\"t\": 0.5, \"entity\": \"chain\", \"action\": \"impulse\", \"value\": [1, 0, 0]}\n");
+        "input.jsonl",
+        "{\"frame\": 10, \"entity\": \"chain\", \"action\": \"impulse\", \"value\": [0, 0, 3]}\n"
+        "\n"
+        "{\"t\": 0.5, \"entity\": \"chain\", \"action\": \"impulse\", \"value\": [1, 0, 0]}\n");
     const std::string path = test::tempPath("input.tumble");
     const std::string plain = test::tempPath("plain.jsonl"), pushed = test::tempPath("pushed.jsonl");
     auto r = test::runTumble({"run", "pendulum", "--frames", "60", "--no-render", "--dump", plain, "--out",
                               test::tempPath("i_out"), "--quiet"});
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = test::runTumble({"run", "pendulum", "--frames", "60", "--no-render", "--input", input, "--record", path,
-                         "--dump", pushed, "--out", test::tempPath("i2_out"), "--quiet"});
+    r = test::runTumble({"run", "pendulum", "--frames", "60", "--no-render", "--input", input, "--record",
+                         path, "--dump", pushed, "--out", test::tempPath("i2_out"), "--quiet"});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(test::readFile(plain), test::readFile(pushed)) << "the input moved something";
     const ReplayFile f = readReplay(path);
@@ -174,8 +181,9 @@ TEST(Replay, ExternalInputIsAppliedAndRecordedLikeScriptedEvents) {
     EXPECT_EQ(r.exitCode, 0) << r.err;
     // a bad line is named
     r = test::runTumble({"run", "pendulum", "--frames", "5", "--no-render", "--out", test::tempPath("i4_out"),
-                         "--input", test::writeTemp("bad.jsonl", "{\"frame\": 1, \"entity\": \"chian\", "
-                                                                 "\"action\": \"impulse\", \"value\": [0, 0, 1]}\n")});
+                         "--input",
+                         test::writeTemp("bad.jsonl", "{\"frame\": 1, \"entity\": \"chian\", "
+                                                      "\"action\": \"impulse\", \"value\": [0, 0, 1]}\n")});
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_NE(r.err.find("bad.jsonl:1"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("did you mean 'chain'"), std::string::npos) << r.err;
@@ -188,11 +196,9 @@ TEST(Replay, HostileFilesAreRefusedNotTrusted) {
     EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
     const std::string path = recordPendulum("hostile.tumble", 150);
     const ReplayFile file = readReplay(path);
-    {
-        ReplayWriter w(test::tempPath("short.tumble"), file.header);
-    }
-    r = test::runTumble({"run", "--from", test::tempPath("short.tumble"), "--no-render", "--out",
-                         test::tempPath("h2_out")});
+    { ReplayWriter w(test::tempPath("short.tumble"), file.header); }
+    r = test::runTumble(
+        {"run", "--from", test::tempPath("short.tumble"), "--no-render", "--out", test::tempPath("h2_out")});
     EXPECT_EQ(r.exitCode, 2) << r.err;
     const std::string misfiled = test::tempPath("misfiled.tumble");
     {
@@ -218,13 +224,13 @@ TEST(Replay, HostileFilesAreRefusedNotTrusted) {
 TEST(Replay, ASnapshotResumesToTheSameBits) {
     const std::string out = test::tempPath("snap_out");
     const std::string whole = test::tempPath("whole.jsonl"), resumed = test::tempPath("resumed.jsonl");
-    auto r = test::runTumble({"run", "drape", "--frames", "40", "--no-render", "--snapshot-at", "25", "--dump",
-                              whole, "--out", out, "--quiet"});
+    auto r = test::runTumble({"run", "drape", "--frames", "40", "--no-render", "--snapshot-at", "25",
+                              "--dump", whole, "--out", out, "--quiet"});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(std::filesystem::exists(out + "/snapshot_25.jsonl"));
     EXPECT_NE(test::readFile(out + "/snapshot_25.jsonl").find("\"frame\":25"), std::string::npos);
-    r = test::runTumble({"run", "--from", out + "/snapshot_25.tumble", "--frames", "40", "--no-render", "--dump",
-                         resumed, "--out", test::tempPath("snap2_out"), "--quiet"});
+    r = test::runTumble({"run", "--from", out + "/snapshot_25.tumble", "--frames", "40", "--no-render",
+                         "--dump", resumed, "--out", test::tempPath("snap2_out"), "--quiet"});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const std::string a = test::readFile(whole), b = test::readFile(resumed);
     EXPECT_TRUE(a == b) << "the resumed run ends elsewhere: " << a.substr(0, 80) << " / " << b.substr(0, 80);

@@ -151,15 +151,16 @@ TEST(RigidBodies, APendulumOnAPointJointSwingsWithThePhysicalPendulumsPeriod) {
     // a ball of radius r on a massless link of length L: T = 2 pi sqrt(I_pivot / (m g L)),
     // I_pivot = 2/5 m r^2 + m L^2 (a disc in 2D: 1/2 m r^2 + m L^2); amplitude 0.1 rad
     const double L = 1.0, r = 0.1, theta = 0.1, dt = 1.0 / 120.0;
-    const std::string at = "[" + std::to_string(L * std::sin(theta)) + ", " +
-                           std::to_string(5.0 - L * std::cos(theta)) + ", 0]";
+    const std::string at =
+        "[" + std::to_string(L * std::sin(theta)) + ", " + std::to_string(5.0 - L * std::cos(theta)) + ", 0]";
     for (bool twoD : {false, true}) {
-        auto sim = test::simulate(scene(dt, "[[entity]]\nname = \"bob\"\n[entity.transform]\nposition = " + at +
-                                                (twoD ? "\n[entity.rigid_body_2d]\nshape = \"circle\"\n"
-                                                      : "\n[entity.rigid_body]\nshape = \"sphere\"\n") +
-                                                "radius = " + std::to_string(r) +
-                                                "\nmass = 1.0\nsleep = false\n"
-                                                "[[joint]]\ntype = \"point\"\na = \"bob\"\npivot = [0, 5, 0]\n"));
+        auto sim =
+            test::simulate(scene(dt, "[[entity]]\nname = \"bob\"\n[entity.transform]\nposition = " + at +
+                                         (twoD ? "\n[entity.rigid_body_2d]\nshape = \"circle\"\n"
+                                               : "\n[entity.rigid_body]\nshape = \"sphere\"\n") +
+                                         "radius = " + std::to_string(r) +
+                                         "\nmass = 1.0\nsleep = false\n"
+                                         "[[joint]]\ntype = \"point\"\na = \"bob\"\npivot = [0, 5, 0]\n"));
         std::vector<double> x;
         double worstStretch = 0.0;
         for (int i = 0; i < 8 * 120; ++i) {
@@ -228,13 +229,14 @@ axis = [0, 0, 1]
 TEST(RigidBodies, ASpringJointOscillatesWithItsPeriodInBothEngines) {
     const double k = 100.0, m = 1.0, dt = 1.0 / 240.0;
     for (bool twoD : {false, true}) {
-        auto sim = test::simulate(scene(dt, std::string("[[entity]]\nname = \"bob\"\n[entity.transform]\n"
-                                                        "position = [0, 4, 0]\n") +
-                                                (twoD ? "[entity.rigid_body_2d]\nshape = \"circle\"\n"
-                                                      : "[entity.rigid_body]\nshape = \"sphere\"\n") +
-                                                "radius = 0.1\nmass = 1.0\nsleep = false\n"
-                                                "[[joint]]\ntype = \"spring\"\na = \"bob\"\npivot_b = [0, 5, 0]\n"
-                                                "stiffness = 100.0\n"));
+        auto sim =
+            test::simulate(scene(dt, std::string("[[entity]]\nname = \"bob\"\n[entity.transform]\n"
+                                                 "position = [0, 4, 0]\n") +
+                                         (twoD ? "[entity.rigid_body_2d]\nshape = \"circle\"\n"
+                                               : "[entity.rigid_body]\nshape = \"sphere\"\n") +
+                                         "radius = 0.1\nmass = 1.0\nsleep = false\n"
+                                         "[[joint]]\ntype = \"spring\"\na = \"bob\"\npivot_b = [0, 5, 0]\n"
+                                         "stiffness = 100.0\n"));
         std::vector<double> y;
         for (int i = 0; i < 4 * 240; ++i) {
             sim->runFrame();
@@ -255,16 +257,17 @@ TEST(RigidBodies, ASpringJointOscillatesWithItsPeriodInBothEngines) {
 
 TEST(RigidBodies, ASliderKeepsItsBodyOnItsAxisAndAWeldKeepsTheirPoses) {
     for (bool twoD : {false, true}) {
-        const std::string body = twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.2, 0.2]\n"
-                                      : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.2, 0.2, 0.2]\n";
-        auto sim = test::simulate(scene(1.0 / 60.0,
-                                        "[[entity]]\nname = \"car\"\n[entity.transform]\nposition = [0, 2, 0]\n" +
-                                            body + "mass = 1.0\nsleep = false\n" +
-                                            "[[entity]]\nname = \"load\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
-                                            body + "mass = 1.0\nsleep = false\n" +
-                                            "[[joint]]\ntype = \"slider\"\na = \"car\"\naxis = [1, 1, 0]\n"
-                                            "[[joint]]\ntype = \"fixed\"\na = \"car\"\nb = \"load\"\n"
-                                            "pivot = [0.25, 2, 0]\n"));
+        const std::string body =
+            twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.2, 0.2]\n"
+                 : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.2, 0.2, 0.2]\n";
+        auto sim = test::simulate(scene(
+            1.0 / 60.0, "[[entity]]\nname = \"car\"\n[entity.transform]\nposition = [0, 2, 0]\n" + body +
+                            "mass = 1.0\nsleep = false\n" +
+                            "[[entity]]\nname = \"load\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
+                            body + "mass = 1.0\nsleep = false\n" +
+                            "[[joint]]\ntype = \"slider\"\na = \"car\"\naxis = [1, 1, 0]\n"
+                            "[[joint]]\ntype = \"fixed\"\na = \"car\"\nb = \"load\"\n"
+                            "pivot = [0.25, 2, 0]\n"));
         runFrames(*sim, 60);
         Vec3 car, load;
         if (twoD) {
@@ -288,17 +291,18 @@ TEST(RigidBodies, JointLimitsAreTheTurnAndTravelOfARelativeToBInBothEngines) {
     // a lever from a hinge at (0, 2) out to +x: gravity turns it clockwise about +z (a negative angle)
     // until its limit of -0.3 rad; a block on a vertical slider falls until its travel reaches -0.5 m
     for (bool twoD : {false, true}) {
-        const std::string lever = twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.5, 0.05]\n"
-                                       : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.5, 0.05, 0.05]\n";
-        auto sim = test::simulate(scene(1.0 / 120.0,
-                                        "[[entity]]\nname = \"lever\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
-                                            lever + "mass = 1.0\nsleep = false\n" +
-                                            "[[entity]]\nname = \"block\"\n[entity.transform]\nposition = [5, 2, 0]\n" +
-                                            lever + "mass = 1.0\nsleep = false\n" +
-                                            "[[joint]]\ntype = \"hinge\"\na = \"lever\"\npivot = [0, 2, 0]\n"
-                                            "limits = [-0.3, 0.3]\n"
-                                            "[[joint]]\ntype = \"slider\"\na = \"block\"\naxis = [0, 1, 0]\n"
-                                            "limits = [-0.5, 0.0]\n"));
+        const std::string lever =
+            twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.5, 0.05]\n"
+                 : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.5, 0.05, 0.05]\n";
+        auto sim = test::simulate(scene(
+            1.0 / 120.0, "[[entity]]\nname = \"lever\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
+                             lever + "mass = 1.0\nsleep = false\n" +
+                             "[[entity]]\nname = \"block\"\n[entity.transform]\nposition = [5, 2, 0]\n" +
+                             lever + "mass = 1.0\nsleep = false\n" +
+                             "[[joint]]\ntype = \"hinge\"\na = \"lever\"\npivot = [0, 2, 0]\n"
+                             "limits = [-0.3, 0.3]\n"
+                             "[[joint]]\ntype = \"slider\"\na = \"block\"\naxis = [0, 1, 0]\n"
+                             "limits = [-0.5, 0.0]\n"));
         runFrames(*sim, 240);
         double angle = 0.0, blockY = 0.0;
         if (twoD) {

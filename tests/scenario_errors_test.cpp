@@ -28,8 +28,7 @@ const std::string kBob =
     "masses = [ { x = [0, 0, 0], pinned = true }, { x = [1, 0, 0] } ]\nlinks = [ { a = 0, b = 1 } ]\n";
 
 // a valid dynamic box (lines 3-7 when appended to kScene)
-const std::string kCrate =
-    "[[entity]]\nname = \"crate\"\n[entity.rigid_body]\nshape = \"box\"\nmass = 1.0\n";
+const std::string kCrate = "[[entity]]\nname = \"crate\"\n[entity.rigid_body]\nshape = \"box\"\nmass = 1.0\n";
 
 /// n copies of an item, comma-separated.
 std::string repeated(const std::string& item, int n) {
@@ -193,11 +192,7 @@ std::vector<BadCase> cases() {
          {},
          10,
          "must name a rigid body"},
-        {"joint_type_typo",
-         kScene + kCrate + "[[joint]]\ntype = \"hinj\"\na = \"crate\"\n",
-         {},
-         9,
-         "hinge"},
+        {"joint_type_typo", kScene + kCrate + "[[joint]]\ntype = \"hinj\"\na = \"crate\"\n", {}, 9, "hinge"},
         {"joint_axis_on_a_point_joint",
          kScene + kCrate + "[[joint]]\ntype = \"point\"\na = \"crate\"\naxis = [0, 0, 1]\n",
          {},
@@ -243,12 +238,14 @@ std::vector<BadCase> cases() {
          10,
          "a 2D hinge turns about z"},
         {"rigid_and_rigid2d_on_one_entity",
-         kScene + "[[entity]]\nname = \"p\"\n[entity.rigid_body]\nmass = 1.0\n[entity.rigid_body_2d]\nmass = 1.0\n",
+         kScene + "[[entity]]\nname = \"p\"\n[entity.rigid_body]\nmass = 1.0\n[entity.rigid_body_2d]\nmass = "
+                  "1.0\n",
          {},
          7,
          "not both"},
         {"spring_joint_too_stiff_for_the_step",
-         kScene + kCrate + "[[joint]]\ntype = \"spring\"\na = \"crate\"\npivot_b = [0, 2, 0]\nstiffness = 1e5\n",
+         kScene + kCrate +
+             "[[joint]]\ntype = \"spring\"\na = \"crate\"\npivot_b = [0, 2, 0]\nstiffness = 1e5\n",
          {},
          12,
          "too stiff"},
@@ -364,23 +361,30 @@ std::vector<BadCase> cases() {
          kScene + "[[entity]]\nname = \"sheet\"\n[entity.cloth]\nrows = 400\ncols = 400\n",
          {"--memory-cap", "100"},
          5,
-         "entity 'sheet' [cloth] (160000 masses, 956002 springs, implicit) needs about 410.7 MiB, so the scene "
+         "entity 'sheet' [cloth] (160000 masses, 956002 springs, implicit) needs about 410.7 MiB, so the "
+         "scene "
          "would need about 431.7 MiB, above the memory cap of 100.0 MiB"},
         {"memory_cap_scene_total",
          kScene + "[[entity]]\nname = \"a\"\n[entity.emitter]\nmax_particles = 1000000\n" +
              "[[entity]]\nname = \"b\"\n[entity.emitter]\nmax_particles = 1000000\n",
          {"--memory-cap", "100"},
          10,
-         "entity 'b' [emitter] (1000000 particles) needs about 61.0 MiB, so the scene would need about 143.2 MiB"},
-        {"memory_cap_render", kScene + "[render]\nwidth = 8192\nheight = 8192\n", {"--memory-cap", "1024"}, 3,
+         "entity 'b' [emitter] (1000000 particles) needs about 61.0 MiB, so the scene would need about 143.2 "
+         "MiB"},
+        {"memory_cap_render",
+         kScene + "[render]\nwidth = 8192\nheight = 8192\n",
+         {"--memory-cap", "1024"},
+         3,
          "[render] (8192 x 8192 frames) needs about 1.5 GiB"},
         // found measuring the loader: a 400x400 self-colliding sheet 1 m across took 9 GiB and ten minutes a
         // step, every vertex facing hundreds of triangles within the thickness
         {"self_collision_thicker_than_spacing",
-         kScene + "[[entity]]\nname = \"sheet\"\n[entity.cloth]\nrows = 400\ncols = 400\nself_collision = true\n",
+         kScene +
+             "[[entity]]\nname = \"sheet\"\n[entity.cloth]\nrows = 400\ncols = 400\nself_collision = true\n",
          {},
          5,
-         "self-collision needs a 'thickness' (0.010000 m) no larger than the cloth's grid spacing (0.002506 m)"},
+         "self-collision needs a 'thickness' (0.010000 m) no larger than the cloth's grid spacing (0.002506 "
+         "m)"},
     };
 }
 

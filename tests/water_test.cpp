@@ -18,8 +18,8 @@ namespace {
 std::string pool(double dt, const std::string& water, const std::string& rest = "") {
     char step[32];
     std::snprintf(step, sizeof step, "%.17g", dt);
-    return std::string("[scene]\nname = \"w\"\ndt = ") + step + "\n[[entity]]\nname = \"pond\"\n[entity.water]\n" +
-           water + rest;
+    return std::string("[scene]\nname = \"w\"\ndt = ") + step +
+           "\n[[entity]]\nname = \"pond\"\n[entity.water]\n" + water + rest;
 }
 
 /// Wave energy: kinetic (1/2) v^2 and potential (1/2) c^2 |grad h|^2, summed over the grid (per unit
@@ -47,8 +47,9 @@ double energy(const Water& w) {
 TEST(Water, APulseFrontTravelsAtTheWaveSpeed) {
     // c = 2 m/s on a 20 m grid of 10 cm cells; a bump of radius 0.3 m in the middle; after 2 s its front is
     // c t beyond the bump's edge
-    auto sim = test::simulate(pool(1.0 / 120.0, "cells = [201, 201]\nsize = [20.0, 20.0]\nwave_speed = 2.0\n"
-                                                "border = \"absorb\"\n",
+    auto sim = test::simulate(pool(1.0 / 120.0,
+                                   "cells = [201, 201]\nsize = [20.0, 20.0]\nwave_speed = 2.0\n"
+                                   "border = \"absorb\"\n",
                                    "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
                                    "position = [0, 0, 0]\nradius = 0.3\namount = 0.05\n"));
     const double t = 2.0;
@@ -113,11 +114,14 @@ TEST(Water, AStepBeyondTheCflLimitIsTakenInStableSubsteps) {
 TEST(Water, AFloatingBoxSettlesAtTheDraftItsDensityPredicts) {
     // a 0.6 m cube of 400 kg/m^3 in water of 1000 kg/m^3 floats with 0.4 of its height under: 0.24 m
     const double side = 0.6, density = 400.0, mass = density * side * side * side;
-    auto sim = test::simulate(pool(1.0 / 60.0, "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 1.5\n"
-                                               "damping = 0.5\ndrag = 2.0\n",
-                                   "[[entity]]\nname = \"crate\"\n[entity.transform]\nposition = [0, 0.5, 0]\n"
-                                   "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.3, 0.3, 0.3]\n"
-                                   "sleep = false\nmass = " + std::to_string(mass) + "\n"));
+    auto sim =
+        test::simulate(pool(1.0 / 60.0,
+                            "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 1.5\n"
+                            "damping = 0.5\ndrag = 2.0\n",
+                            "[[entity]]\nname = \"crate\"\n[entity.transform]\nposition = [0, 0.5, 0]\n"
+                            "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.3, 0.3, 0.3]\n"
+                            "sleep = false\nmass = " +
+                                std::to_string(mass) + "\n"));
     for (int f = 0; f < 900; ++f) {
         sim->runFrame();
     }

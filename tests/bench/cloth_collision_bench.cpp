@@ -56,7 +56,8 @@ void BM_CurtainImplicit35NoSelfCollision(benchmark::State& state) {
 BENCHMARK(BM_CurtainImplicit35NoSelfCollision)->Unit(benchmark::kMillisecond)->Iterations(300);
 
 void BM_RefitCloth100(benchmark::State& state) {
-    auto sim = curtain({"curtain.cloth.rows=100", "curtain.cloth.cols=100", "curtain.cloth.self_collision=true"});
+    auto sim =
+        curtain({"curtain.cloth.rows=100", "curtain.cloth.cols=100", "curtain.cloth.self_collision=true"});
     const SpringNetwork* net = nullptr;
     sim->world().view<const SpringNetwork>().each([&](Entity, const SpringNetwork& n) { net = &n; });
     std::vector<Aabb> boxes(net->triangles.size());

@@ -42,7 +42,8 @@ void BM_CurtainRunRecorded(benchmark::State& state) {
     std::vector<EntityHash> entities;
     for (auto _ : state) {
         sim->runFrame();
-        FrameRecord rec{sim->takeAppliedEvents(), frameHashes(sim->world(), sim->catalog(), entities), entities};
+        FrameRecord rec{sim->takeAppliedEvents(), frameHashes(sim->world(), sim->catalog(), entities),
+                        entities};
         writer.frame(rec);
     }
     writer.finish();

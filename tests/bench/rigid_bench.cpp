@@ -138,14 +138,15 @@ BENCHMARK(BM_BulletStackBridge)->Unit(benchmark::kMillisecond)->Iterations(kStep
 constexpr int kBase = 40;
 
 std::string pyramidScene() {
-    std::string s = "[scene]\nname = \"pyramid\"\ndt = 0.016666666666666666\n"
-                    "[[entity]]\nname = \"ground\"\n[entity.rigid_body_2d]\nshape = \"edge\"\nfrom = [-40, 0]\n"
-                    "to = [40, 0]\n";
+    std::string s =
+        "[scene]\nname = \"pyramid\"\ndt = 0.016666666666666666\n"
+        "[[entity]]\nname = \"ground\"\n[entity.rigid_body_2d]\nshape = \"edge\"\nfrom = [-40, 0]\n"
+        "to = [40, 0]\n";
     for (int row = 0; row < kBase; ++row) {
         const int n = kBase - row;
         s += "[[entity]]\nname = \"r" + std::to_string(row) + "\"\nrepeat = { count = " + std::to_string(n) +
-             ", offset = [1, 0, 0] }\n[entity.transform]\nposition = [" + std::to_string(-0.5 * (n - 1)) + ", " +
-             std::to_string(0.5 + row) + ", 0]\n[entity.rigid_body_2d]\nshape = \"box\"\nmass = 1.0\n";
+             ", offset = [1, 0, 0] }\n[entity.transform]\nposition = [" + std::to_string(-0.5 * (n - 1)) +
+             ", " + std::to_string(0.5 + row) + ", 0]\n[entity.rigid_body_2d]\nshape = \"box\"\nmass = 1.0\n";
     }
     return s;
 }

@@ -77,18 +77,21 @@ std::string scenario(std::uint64_t seed) {
     const int entities = crowd ? intIn(rng, 1000, 3000) : intIn(rng, 1, 6);
     const char* crowdKind = pick(rng, {"rope", "sphere", "emitter", "disc"});
     auto position = [&] {
-        return vec3(rng.uniform(-1.0, 1.0) * scale, rng.uniform(0.0, 2.0) * scale, rng.uniform(-1.0, 1.0) * scale);
+        return vec3(rng.uniform(-1.0, 1.0) * scale, rng.uniform(0.0, 2.0) * scale,
+                    rng.uniform(-1.0, 1.0) * scale);
     };
     if (rng.uniform() < 0.5) {
         s << "[[entity]]\nname = \"ground\"\n[entity.rigid_body]\nshape = \"plane\"\n";
     }
     for (int e = 0; e < entities; ++e) {
-        const std::string kind =
-            crowd ? crowdKind : pick(rng, {"rope", "cloth", "softbody", "emitter", "sphere", "box", "disc", "water", "wind"});
+        const std::string kind = crowd ? crowdKind
+                                       : pick(rng, {"rope", "cloth", "softbody", "emitter", "sphere", "box",
+                                                    "disc", "water", "wind"});
         s << "[[entity]]\nname = \"e" << e << "\"\n[entity.transform]\nposition = " << position() << "\n";
         const double k = logUniform(rng, 1e-3, 1e9);
         const double m = logUniform(rng, 1e-6, 1e6);
-        const char* integrator = pick(rng, {"explicit_euler", "midpoint", "rk4", "symplectic_euler", "implicit_euler"});
+        const char* integrator =
+            pick(rng, {"explicit_euler", "midpoint", "rk4", "symplectic_euler", "implicit_euler"});
         if (kind == "rope") {
             const int n = crowd ? 2 : intIn(rng, 2, 30);
             const double step = scale * logUniform(rng, 1e-3, 1.0);
@@ -108,22 +111,24 @@ std::string scenario(std::uint64_t seed) {
             const double size = scale * logUniform(rng, 1e-2, 1.0);
             const bool self = rng.uniform() < 0.3;
             s << "[entity.cloth]\nrows = " << rows << "\ncols = " << cols << "\nsize = [" << num(size) << ", "
-              << num(size) << "]\nmass = " << num(m) << "\nstretch = " << num(k) << "\nshear = " << num(k * 0.1)
-              << "\nbend = " << num(k * 0.01) << "\nintegrator = \"" << integrator << "\"\npin = \""
-              << pick(rng, {"top-corners", "top-row", "none"}) << "\"\nplane = \"" << pick(rng, {"xy", "xz"})
-              << "\"\n";
+              << num(size) << "]\nmass = " << num(m) << "\nstretch = " << num(k)
+              << "\nshear = " << num(k * 0.1) << "\nbend = " << num(k * 0.01) << "\nintegrator = \""
+              << integrator << "\"\npin = \"" << pick(rng, {"top-corners", "top-row", "none"})
+              << "\"\nplane = \"" << pick(rng, {"xy", "xz"}) << "\"\n";
             if (self) {
                 s << "self_collision = true\nthickness = " << num(0.5 * size / std::max(rows, cols)) << "\n";
             }
         } else if (kind == "softbody") {
-            s << "[entity.softbody]\nsize = " << vec3(scale * 0.5, scale * 0.5, scale * 0.5) << "\nresolution = ["
-              << intIn(rng, 2, 6) << ", " << intIn(rng, 2, 6) << ", " << intIn(rng, 2, 6) << "]\nmass = " << num(m)
-              << "\nstiffness = " << num(k) << "\nintegrator = \"" << integrator << "\"\n";
+            s << "[entity.softbody]\nsize = " << vec3(scale * 0.5, scale * 0.5, scale * 0.5)
+              << "\nresolution = [" << intIn(rng, 2, 6) << ", " << intIn(rng, 2, 6) << ", "
+              << intIn(rng, 2, 6) << "]\nmass = " << num(m) << "\nstiffness = " << num(k)
+              << "\nintegrator = \"" << integrator << "\"\n";
         } else if (kind == "emitter") {
-            s << "[entity.emitter]\nrate = " << num(logUniform(rng, 1.0, 1e5)) << "\nburst = " << intIn(rng, 0, 2000)
+            s << "[entity.emitter]\nrate = " << num(logUniform(rng, 1.0, 1e5))
+              << "\nburst = " << intIn(rng, 0, 2000)
               << "\nmax_particles = " << (crowd ? 50 : intIn(rng, 1, 20000)) << "\nspeed = [0.0, "
-              << num(logUniform(rng, 1e-3, 1e4)) << "]\nlifetime = [0.01, " << num(logUniform(rng, 0.01, 100.0))
-              << "]\ndrag = " << num(logUniform(rng, 1e-3, 1e3)) << "\n";
+              << num(logUniform(rng, 1e-3, 1e4)) << "]\nlifetime = [0.01, "
+              << num(logUniform(rng, 0.01, 100.0)) << "]\ndrag = " << num(logUniform(rng, 1e-3, 1e3)) << "\n";
         } else if (kind == "sphere" || kind == "box") {
             const double r = scale * logUniform(rng, 1e-3, 0.5);
             s << "[entity.rigid_body]\nshape = \"" << kind << "\"\n"
@@ -131,18 +136,19 @@ std::string scenario(std::uint64_t seed) {
             if (rng.uniform() < 0.1) {
                 s << "mass = 0.0\n";
             } else {
-                s << "mass = " << num(m) << "\nlinear_velocity = " << vec3(0.0, -logUniform(rng, 1e-3, 1e3), 0.0)
-                  << "\n";
+                s << "mass = " << num(m)
+                  << "\nlinear_velocity = " << vec3(0.0, -logUniform(rng, 1e-3, 1e3), 0.0) << "\n";
             }
         } else if (kind == "disc") {
-            s << "[entity.rigid_body_2d]\nshape = \"circle\"\nradius = " << num(scale * logUniform(rng, 1e-3, 0.5))
-              << "\nmass = " << num(m) << "\n";
+            s << "[entity.rigid_body_2d]\nshape = \"circle\"\nradius = "
+              << num(scale * logUniform(rng, 1e-3, 0.5)) << "\nmass = " << num(m) << "\n";
         } else if (kind == "water") {
-            s << "[entity.water]\ncells = [" << intIn(rng, 3, 64) << ", " << intIn(rng, 3, 64) << "]\nsize = ["
-              << num(scale) << ", " << num(scale) << "]\nwave_speed = " << num(logUniform(rng, 1e-3, 1e3)) << "\n";
+            s << "[entity.water]\ncells = [" << intIn(rng, 3, 64) << ", " << intIn(rng, 3, 64)
+              << "]\nsize = [" << num(scale) << ", " << num(scale)
+              << "]\nwave_speed = " << num(logUniform(rng, 1e-3, 1e3)) << "\n";
         } else {
-            s << "[entity.force_field]\nkind = \"wind\"\nstrength = " << vec3(logUniform(rng, 1e-3, 1e4), 0.0, 0.0)
-              << "\n";
+            s << "[entity.force_field]\nkind = \"wind\"\nstrength = "
+              << vec3(logUniform(rng, 1e-3, 1e4), 0.0, 0.0) << "\n";
         }
     }
     return s.str();
@@ -179,13 +185,23 @@ bool onlyBlowUps(const std::string& err) {
 }
 
 /// Runs one scenario through the program, killing it after `timeout` seconds.
-Run runOne(const std::string& tumble, const std::string& dir, std::uint64_t seed, int frames, double timeout) {
+Run runOne(const std::string& tumble, const std::string& dir, std::uint64_t seed, int frames,
+           double timeout) {
     const std::string file = dir + "/sweep_" + std::to_string(seed) + ".toml";
     std::ofstream(file) << scenario(seed);
     const std::string errFile = dir + "/sweep_" + std::to_string(seed) + ".err";
     const std::string dump = dir + "/sweep_" + std::to_string(seed) + ".jsonl";
-    std::vector<std::string> args = {tumble, "run", file, "--no-render", "--quiet", "--frames", std::to_string(frames),
-                                     "--out", dir + "/out_" + std::to_string(seed), "--dump", dump};
+    std::vector<std::string> args = {tumble,
+                                     "run",
+                                     file,
+                                     "--no-render",
+                                     "--quiet",
+                                     "--frames",
+                                     std::to_string(frames),
+                                     "--out",
+                                     dir + "/out_" + std::to_string(seed),
+                                     "--dump",
+                                     dump};
     std::vector<char*> argv;
     for (std::string& a : args) {
         argv.push_back(a.data());
@@ -242,7 +258,8 @@ Run runOne(const std::string& tumble, const std::string& dir, std::uint64_t seed
     } else if (WEXITSTATUS(status) == 1 && onlyBlowUps(err)) {
         run.outcome = Outcome::BlowUp;
     } else {
-        run.why = "exit " + std::to_string(WEXITSTATUS(status)) + ", not a clear error or a named blow-up:\n" + err;
+        run.why =
+            "exit " + std::to_string(WEXITSTATUS(status)) + ", not a clear error or a named blow-up:\n" + err;
     }
     if (run.outcome != Outcome::Failure) {
         fs::remove(file);
@@ -312,14 +329,14 @@ int main(int argc, char** argv) {
             slowestSeed = seed + std::uint64_t(i);
         }
         if (r.outcome == Outcome::Failure) {
-            std::printf("FAILED %s/sweep_%llu.toml: %s\n", dir.c_str(), static_cast<unsigned long long>(seed + i),
-                        r.why.c_str());
+            std::printf("FAILED %s/sweep_%llu.toml: %s\n", dir.c_str(),
+                        static_cast<unsigned long long>(seed + i), r.why.c_str());
         }
     }
     std::printf("%d scenarios: %d ok, %d clear errors, %d caught blow-ups, %d failures (crash, hang or "
                 "unclassified); slowest %.2f s (seed %llu)\n",
-                count, tally[Outcome::Ok], tally[Outcome::Error], tally[Outcome::BlowUp], tally[Outcome::Failure],
-                slowest, static_cast<unsigned long long>(slowestSeed));
+                count, tally[Outcome::Ok], tally[Outcome::Error], tally[Outcome::BlowUp],
+                tally[Outcome::Failure], slowest, static_cast<unsigned long long>(slowestSeed));
     // a sweep whose scenarios were nearly all refused would pass while testing nothing
     if (tally[Outcome::Ok] + tally[Outcome::BlowUp] < count / 2) {
         std::printf("FAILED: fewer than half of the scenarios ran (a schema change refuses what the sweep "
