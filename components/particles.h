@@ -26,9 +26,6 @@ struct ParticlePool {
     std::vector<float> lifetime;   ///< s; the particle dies when age reaches it
     std::uint32_t count = 0;       ///< live particles (the arrays are sized to the emitter's capacity)
     std::vector<std::uint32_t> deadGroups; ///< scratch of the update (not state): groups of four with a death
-
-    /// Sizes every array for `capacity` particles, once: the update never allocates.
-    void reserve(std::uint32_t capacity);
 };
 
 /// Settings of an emitter (read from the scenario; events may change `rate`).

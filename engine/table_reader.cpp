@@ -249,7 +249,7 @@ std::string TableReader::requiredString(std::string_view key) {
 }
 
 std::string TableReader::choice(std::string_view key, std::string fallback,
-                                std::initializer_list<std::string_view> names) {
+                                std::span<const std::string_view> names) {
     const std::string s = string(key, fallback);
     for (std::string_view n : names) {
         if (s == n) {

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -88,7 +89,11 @@ public:
     std::string requiredString(std::string_view key);
     /// One of the given names.
     std::string choice(std::string_view key, std::string fallback,
-                       std::initializer_list<std::string_view> names);
+                       std::initializer_list<std::string_view> names) {
+        return choice(key, std::move(fallback),
+                      std::span<const std::string_view>(names.begin(), names.size()));
+    }
+    std::string choice(std::string_view key, std::string fallback, std::span<const std::string_view> names);
     /// An array of exactly N finite numbers, each in [lo, hi].
     template <std::size_t N>
     std::array<double, N> vector(std::string_view key, std::array<double, N> fallback, double lo, double hi) {

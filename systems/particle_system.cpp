@@ -112,7 +112,7 @@ void loadEmitter(TableReader& r, World& world, Entity entity, const SceneDef& sc
     }
     e.origin = world.get<Transform>(entity).position;
     e.rng = Rng(streamSeed(scene.seed, "emitter:" + world.get<Name>(entity).value));
-    e.pool.reserve(d.maxParticles);
+    reserveParticles(e.pool, d.maxParticles);
     e.pendingBurst = d.burst;
     world.emplace<ParticleEmitter>(entity, std::move(e));
 }
@@ -184,11 +184,11 @@ void applyFields(ParticlePool& p, const std::vector<ForceField>& fields, float d
 
 } // namespace
 
-void ParticlePool::reserve(std::uint32_t capacity) {
-    for (std::vector<float>* a : {&px, &py, &pz, &vx, &vy, &vz, &age, &lifetime}) {
+void reserveParticles(ParticlePool& p, std::uint32_t capacity) {
+    for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
         a->assign(capacity, 0.0f);
     }
-    deadGroups.reserve(capacity / 4 + 1);
+    p.deadGroups.reserve(capacity / 4 + 1);
 }
 
 void spawnParticles(ParticleEmitter& e, std::uint64_t n) {

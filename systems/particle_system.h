@@ -37,6 +37,9 @@ void updateParticles(World& world, const StepContext& ctx);
 /// Gives birth to up to n particles (fewer when the pool fills; the rest are counted as dropped).
 void spawnParticles(ParticleEmitter& emitter, std::uint64_t n);
 
+/// Sizes every array of a pool for `capacity` particles, once, at load: the update never allocates.
+void reserveParticles(ParticlePool& pool, std::uint32_t capacity);
+
 /// Ages the pool by dt, removes the particles whose lifetime is over, and advances the survivors under
 /// gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel.
 std::uint32_t advanceParticles(ParticlePool& pool, const Vec3& gravity, float drag, float dt);

@@ -290,6 +290,14 @@ struct Renderer {
     std::shared_ptr<void> context; ///< the headless context the run opened for us (none in a window)
     std::unique_ptr<Framebuffer> target;
     GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
+    /// Uniform locations, looked up once when the programs are linked.
+    struct {
+        GLint viewProjection = -1, model = -1, colour = -1, grid = -1, lightDir = -1, eye = -1;
+    } mesh;
+    GLint flatViewProjection = -1;
+    struct {
+        GLint viewProjection = -1, right = -1, up = -1;
+    } particle;
     Mesh sphere, cube, cylinder, plane;
     Mesh ball;                ///< a coarse sphere, drawn once per mass (instanced)
     GLuint ballInstances = 0; ///< per mass: offset and radius
@@ -319,8 +327,8 @@ struct Renderer {
             glDeleteProgram(program);
         }
         std::vector<Mesh> meshes{sphere, cube, cylinder, plane, ball};
-        for (const auto& [shape, mesh] : shapeMeshes) {
-            meshes.push_back(mesh);
+        for (const auto& [shape, uploaded] : shapeMeshes) {
+            meshes.push_back(uploaded);
         }
         for (const Mesh& m : meshes) {
             glDeleteBuffers(1, &m.vbo);
@@ -386,6 +394,14 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     glVertexAttribDivisor(2, 1);
     r.particleProgram =
         compileProgram(readText(shaders + "particle.vert"), readText(shaders + "particle.frag"), "particle");
+    r.mesh = {
+        glGetUniformLocation(r.meshProgram, "uViewProjection"), glGetUniformLocation(r.meshProgram, "uModel"),
+        glGetUniformLocation(r.meshProgram, "uColor"),          glGetUniformLocation(r.meshProgram, "uGrid"),
+        glGetUniformLocation(r.meshProgram, "uLightDir"),       glGetUniformLocation(r.meshProgram, "uEye")};
+    r.flatViewProjection = glGetUniformLocation(r.flatProgram, "uViewProjection");
+    r.particle = {glGetUniformLocation(r.particleProgram, "uViewProjection"),
+                  glGetUniformLocation(r.particleProgram, "uRight"),
+                  glGetUniformLocation(r.particleProgram, "uUp")};
     glGenVertexArrays(1, &r.particleVao);
     glGenBuffers(1, &r.particleVbo);
     glBindVertexArray(r.particleVao);
@@ -498,9 +514,9 @@ void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat&
 }
 
 void drawColliders(World& world, Renderer& r, double alpha) {
-    const GLint modelLoc = glGetUniformLocation(r.meshProgram, "uModel");
-    const GLint colourLoc = glGetUniformLocation(r.meshProgram, "uColor");
-    const GLint gridLoc = glGetUniformLocation(r.meshProgram, "uGrid");
+    const GLint modelLoc = r.mesh.model;
+    const GLint colourLoc = r.mesh.colour;
+    const GLint gridLoc = r.mesh.grid;
     auto draw = [&](const Mesh& m, const Mat4& transform, const std::array<float, 4>& colour, bool grid) {
         glUniformMatrix4fv(modelLoc, 1, GL_FALSE, transform.data());
         glUniform4fv(colourLoc, 1, colour.data());
@@ -586,9 +602,9 @@ void drawColliders(World& world, Renderer& r, double alpha) {
 /// Draws r.clothVertices (position and normal per corner, in world space) as lit triangles of one colour.
 void drawSurfaceVertices(Renderer& r, const std::array<float, 4>& colour) {
     const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
-    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
-    glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, colour.data());
-    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
+    glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
+    glUniform4fv(r.mesh.colour, 1, colour.data());
+    glUniform1f(r.mesh.grid, 0.0f);
     glBindVertexArray(r.clothVao);
     glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
@@ -688,11 +704,9 @@ void renderWorld(World& world, const StepContext& ctx) {
     // every draw that is not instanced
     glUseProgram(r.meshProgram);
     glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
-    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uViewProjection"), 1, GL_FALSE,
-                       viewProjection.data());
-    glUniform3f(glGetUniformLocation(r.meshProgram, "uLightDir"), float(light.x), float(light.y),
-                float(light.z));
-    glUniform3f(glGetUniformLocation(r.meshProgram, "uEye"), float(eye.x), float(eye.y), float(eye.z));
+    glUniformMatrix4fv(r.mesh.viewProjection, 1, GL_FALSE, viewProjection.data());
+    glUniform3f(r.mesh.lightDir, float(light.x), float(light.y), float(light.z));
+    glUniform3f(r.mesh.eye, float(eye.x), float(eye.y), float(eye.z));
     drawColliders(world, r, ctx.alpha);
     world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r); });
     std::size_t drawn = 0;
@@ -706,8 +720,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     // lines and points: other spring networks, then particles (blended, after everything opaque)
     // other spring networks: their springs as lines, their masses as small lit balls (instanced)
     glUseProgram(r.flatProgram);
-    glUniformMatrix4fv(glGetUniformLocation(r.flatProgram, "uViewProjection"), 1, GL_FALSE,
-                       viewProjection.data());
+    glUniformMatrix4fv(r.flatViewProjection, 1, GL_FALSE, viewProjection.data());
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         if (!net.triangles.empty() && !output->wireframe) {
             return; // drawn as a surface
@@ -723,8 +736,8 @@ void renderWorld(World& world, const StepContext& ctx) {
     });
     glUseProgram(r.meshProgram);
     const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
-    glUniformMatrix4fv(glGetUniformLocation(r.meshProgram, "uModel"), 1, GL_FALSE, identity.data());
-    glUniform1f(glGetUniformLocation(r.meshProgram, "uGrid"), 0.0f);
+    glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
+    glUniform1f(r.mesh.grid, 0.0f);
     drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         const auto c = palette(drawn++);
@@ -736,7 +749,7 @@ void renderWorld(World& world, const StepContext& ctx) {
         for (const Vec3& x : drawnPositions(world, e, net, ctx.alpha, r.positions)) {
             r.instances.insert(r.instances.end(), {float(x.x), float(x.y), float(x.z), radius});
         }
-        glUniform4fv(glGetUniformLocation(r.meshProgram, "uColor"), 1, c.data());
+        glUniform4fv(r.mesh.colour, 1, c.data());
         glBindVertexArray(r.ball.vao);
         glBindBuffer(GL_ARRAY_BUFFER, r.ballInstances);
         glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.instances.size() * sizeof(float)), r.instances.data(),
@@ -746,11 +759,10 @@ void renderWorld(World& world, const StepContext& ctx) {
 
     // particles: camera-facing quads (instanced), blended after everything opaque
     glUseProgram(r.particleProgram);
-    glUniformMatrix4fv(glGetUniformLocation(r.particleProgram, "uViewProjection"), 1, GL_FALSE,
-                       viewProjection.data());
+    glUniformMatrix4fv(r.particle.viewProjection, 1, GL_FALSE, viewProjection.data());
     const Mat4 view = lookAt(eye, target);
-    glUniform3f(glGetUniformLocation(r.particleProgram, "uRight"), view[0], view[4], view[8]);
-    glUniform3f(glGetUniformLocation(r.particleProgram, "uUp"), view[1], view[5], view[9]);
+    glUniform3f(r.particle.right, view[0], view[4], view[8]);
+    glUniform3f(r.particle.up, view[1], view[5], view[9]);
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     glDepthMask(GL_FALSE);

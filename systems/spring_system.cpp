@@ -26,9 +26,7 @@ constexpr double kMaxSpeed = 1e4; // m/s: beyond it a network has blown up
 
 /// Keys every network takes: integrator, drag, contact and solver settings.
 void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrator) {
-    const std::string name =
-        r.choice("integrator", defaultIntegrator,
-                 {"explicit_euler", "midpoint", "rk4", "symplectic_euler", "implicit_euler"});
+    const std::string name = r.choice("integrator", defaultIntegrator, kIntegratorNames);
     for (std::size_t i = 0; i < std::size(kIntegratorNames); ++i) {
         if (kIntegratorNames[i] == name) {
             net.integrator = static_cast<Integrator>(i);

@@ -181,7 +181,7 @@ TEST(ParticleSystem, SameSeedSameParticlesOtherSeedOthers) {
 
 TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
     ParticlePool p, q;
-    p.reserve(1003);
+    reserveParticles(p, 1003);
     Rng rng(11);
     for (std::uint32_t i = 0; i < 1003; ++i) {
         for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz}) {
@@ -293,7 +293,7 @@ TEST(ParticleSystem, KernelHandlesEveryTailLength) {
     for (std::uint32_t n : {0u, 1u, 3u, 4u, 5u, 8u, 9u}) {
         for (const bool allDie : {false, true}) {
             ParticlePool p;
-            p.reserve(16);
+            reserveParticles(p, 16);
             for (std::uint32_t i = 0; i < n; ++i) {
                 p.lifetime[i] = allDie ? 0.01f : 10.0f;
                 p.py[i] = float(i);
