@@ -227,8 +227,10 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
         if (st.isPhase || st.phase != Phase::Fixed || st.calls == 0) {
             continue;
         }
-        std::printf("%-18s %-6s %9.3f %9.3f %9.3f\n", st.name.c_str(),
-                    std::string(phaseName(st.phase)).c_str(), st.p50Ms, st.p99Ms, st.maxMs);
+        // a stage of a system under it, indented: "  solve" under "springs"
+        const std::string label = st.stageOf.empty() ? st.name : "  " + st.name.substr(st.stageOf.size() + 1);
+        std::printf("%-18s %-6s %9.3f %9.3f %9.3f\n", label.c_str(), std::string(phaseName(st.phase)).c_str(),
+                    st.p50Ms, st.p99Ms, st.maxMs);
     }
     std::printf("%-18s %-6s %9.3f %9.3f %9.3f   %s\n", "physics a frame", "", f.physicsP50Ms, f.physicsP99Ms,
                 f.physicsMaxMs, over ? "OVER BUDGET" : "within budget");

@@ -34,7 +34,7 @@ Profiler::Profiler(std::size_t ringCapacity)
 }
 
 int Profiler::addSlot(std::string name, Phase phase, bool isPhase) {
-    Slot s{std::move(name), phase, isPhase, 0, 0, 0, {}};
+    Slot s{std::move(name), phase, isPhase, {}, 0, 0, 0, {}};
     s.recent.samples.reserve(m_capacity);
     m_slots.push_back(std::move(s));
     return static_cast<int>(m_slots.size() - 1);
@@ -46,7 +46,9 @@ int Profiler::stageSlot(std::string_view name, Phase phase) {
             return static_cast<int>(i);
         }
     }
-    return addSlot(std::string(name), phase, false);
+    const int slot = addSlot(std::string(name), phase, false);
+    m_slots[std::size_t(slot)].stageOf = std::string(name.substr(0, name.find('.')));
+    return slot;
 }
 
 int Profiler::counterSlot(std::string_view name) {
@@ -156,13 +158,33 @@ void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) n
 }
 
 std::vector<SlotStats> Profiler::slotStats() const {
+    // in slot order, each system's stages right after it (stages are made on first use, after every system)
+    std::vector<const Slot*> order;
+    for (const Slot& s : m_slots) {
+        if (!s.stageOf.empty()) {
+            continue;
+        }
+        order.push_back(&s);
+        for (const Slot& stage : m_slots) {
+            if (stage.stageOf == s.name && !s.isPhase) {
+                order.push_back(&stage);
+            }
+        }
+    }
+    for (const Slot& s : m_slots) {
+        if (!s.stageOf.empty() && std::find(order.begin(), order.end(), &s) == order.end()) {
+            order.push_back(&s); // a stage of no system of this profiler
+        }
+    }
     std::vector<SlotStats> out;
     out.reserve(m_slots.size());
-    for (const Slot& s : m_slots) {
+    for (const Slot* slot : order) {
+        const Slot& s = *slot;
         SlotStats st;
         st.name = s.name;
         st.phase = s.phase;
         st.isPhase = s.isPhase;
+        st.stageOf = s.stageOf;
         st.calls = s.calls;
         st.meanMs = s.calls ? static_cast<double>(s.sumNs) * 1e-6 / static_cast<double>(s.calls) : 0.0;
         st.p50Ms = s.recent.percentile(0.50);

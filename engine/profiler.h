@@ -24,6 +24,7 @@ struct SlotStats {
     std::string name;
     Phase phase = Phase::Fixed;
     bool isPhase = false; ///< true for a whole-phase timer, false for a system
+    std::string stageOf;  ///< for a stage inside a system ("springs.solve"): the system ("springs")
     std::uint64_t calls = 0;
     double meanMs = 0.0; ///< over every call of the run
     double p50Ms = 0.0;  ///< over the calls still in the ring buffer
@@ -74,7 +75,8 @@ public:
     std::size_t slotCount() const { return m_slots.size(); }
     /// The slot of a stage inside a system ("system.stage"), made on first use: Box2D's b2Profile
     /// idea, so a system's cost can be seen stage by stage. Stages are not phases: they do not add to
-    /// the frame's physics time, which their system's phase already holds.
+    /// the frame's physics time, which their system's phase already holds. slotStats() lists each stage
+    /// right after its system.
     int stageSlot(std::string_view name, Phase phase);
     /// The id of a counter, made on first use.
     int counterSlot(std::string_view name);
@@ -129,6 +131,7 @@ private:
         std::string name;
         Phase phase;
         bool isPhase;
+        std::string stageOf; ///< a stage's system, else empty
         std::uint64_t calls = 0;
         std::int64_t sumNs = 0;
         std::int64_t maxNs = 0;
@@ -183,6 +186,27 @@ private:
 
 #define TUMBLE_CONCAT_INNER(a, b) a##b
 #define TUMBLE_CONCAT(a, b) TUMBLE_CONCAT_INNER(a, b)
+/// Times a stage inside a system (name "system.stage") into its own slot, listed under the system in the
+/// budget table, the profile and the trace; does nothing without a profiler (an untimed run).
+class ProfileStage {
+public:
+    ProfileStage(Profiler* profiler, std::string_view name)
+        : m_profiler(profiler), m_slot(profiler ? profiler->stageSlot(name, Phase::Fixed) : -1),
+          m_startNs(profiler ? profiler->nowNs() : 0) {}
+    ~ProfileStage() {
+        if (m_profiler) {
+            m_profiler->record(m_slot, m_startNs, m_profiler->nowNs() - m_startNs);
+        }
+    }
+    ProfileStage(const ProfileStage&) = delete;
+    ProfileStage& operator=(const ProfileStage&) = delete;
+
+private:
+    Profiler* m_profiler;
+    int m_slot;
+    std::int64_t m_startNs;
+};
+
 /// Times the rest of the enclosing scope into the given profiler slot.
 #define TUMBLE_PROFILE_SCOPE(profiler, slot)                                                                 \
     ::tumble::ScopedTimer TUMBLE_CONCAT(tumbleScopedTimer, __LINE__)(profiler, slot)

@@ -147,6 +147,9 @@ std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, s
                 continue;
             }
             w.beginObject().key("name").value(s.name).key("phase").value(phaseName(s.phase));
+            if (!s.stageOf.empty()) {
+                w.key("stage_of").value(s.stageOf); // a stage inside that system, listed after it
+            }
             w.key("calls").value(s.calls).key("mean_ms").value(roundMs(s.meanMs));
             w.key("p50_ms").value(roundMs(s.p50Ms)).key("p99_ms").value(roundMs(s.p99Ms));
             w.key("max_ms").value(roundMs(s.maxMs)).endObject();

@@ -147,19 +147,6 @@ struct ClothScratch {
 
 namespace {
 
-/// Times a stage of the system into its own profile entry.
-class Stage {
-public:
-    Stage(const StepContext& ctx, const char* name) {
-        if (ctx.profiler) {
-            m_timer.emplace(*ctx.profiler, ctx.profiler->stageSlot(name, Phase::Fixed));
-        }
-    }
-
-private:
-    std::optional<ScopedTimer> m_timer;
-};
-
 /// A rotation by the vector a (angle |a| about a / |a|) applied to r (Rodrigues).
 Vec3 rotateBy(const Vec3& a, const Vec3& r) {
     const double angle = length(a);
@@ -456,10 +443,10 @@ public:
             m_s.allow[i] = kDriftFraction * mesh(i).net->thickness + length(m_s.x[i] - m_s.xg[i]);
         }
         {
-            Stage stage(m_ctx, "cloth_collision.refit");
+            ProfileStage stage(m_ctx.profiler, "cloth_collision.refit");
             refit();
         }
-        Stage stage(m_ctx, "cloth_collision.pairs");
+        ProfileStage stage(m_ctx.profiler, "cloth_collision.pairs");
         if (all) {
             gather();
             m_s.testAll = true;
@@ -1558,7 +1545,7 @@ void collideCloth(World& world, const StepContext& ctx) {
         m.cc->recheck = false;
     }
     if (look) {
-        Stage stage(ctx, "cloth_collision.audit");
+        ProfileStage stage(ctx.profiler, "cloth_collision.audit");
         findCrossings(s, s.x0, s.found);
         report(world, ctx, s, false, !s.startChecked);
         s.startChecked = true;
@@ -1567,7 +1554,7 @@ void collideCloth(World& world, const StepContext& ctx) {
     ++s.step;
     holdOnColliders(world, s, false);
     if (!s.tangled.empty()) {
-        Stage stage(ctx, "cloth_collision.untangle");
+        ProfileStage stage(ctx.profiler, "cloth_collision.untangle");
         contact.untangle();
     }
     contact.refreshCandidates();
@@ -1577,7 +1564,7 @@ void collideCloth(World& world, const StepContext& ctx) {
     // pushing one pair apart can press another together: a few passes (a contact the continuous passes
     // stop is left a small gap apart; the next step's repulsion takes it back to the thickness)
     {
-        Stage stage(ctx, "cloth_collision.proximity");
+        ProfileStage stage(ctx.profiler, "cloth_collision.proximity");
         for (int pass = 0; pass < kProximityPasses && contact.proximity(pass == 0) > 0; ++pass) {
         }
     }
@@ -1585,7 +1572,7 @@ void collideCloth(World& world, const StepContext& ctx) {
     // masses are) is the proof that the step crosses nothing
     bool clean = false;
     {
-        Stage stage(ctx, "cloth_collision.ccd");
+        ProfileStage stage(ctx.profiler, "cloth_collision.ccd");
         for (int pass = 0; pass < kContinuousPasses && !clean; ++pass) {
             contact.refreshCandidates();
             const int found = contact.continuous(true);
@@ -1595,13 +1582,13 @@ void collideCloth(World& world, const StepContext& ctx) {
     }
     // the fail-safe, when they did not settle
     if (!clean) {
-        Stage stage(ctx, "cloth_collision.zones");
+        ProfileStage stage(ctx.profiler, "cloth_collision.zones");
         failSafe(contact, stats, kProjectionRounds, kZoneRounds);
     }
     // colliders put back what the cloth pushed into them (and seat it); if that makes a contact, the
     // fail-safe again, freezing at once: a frozen mass goes back to where it began, outside the collider
     if (holdOnColliders(world, s, true) > 0) {
-        Stage stage(ctx, "cloth_collision.zones");
+        ProfileStage stage(ctx.profiler, "cloth_collision.zones");
         failSafe(contact, stats, 0, 0);
     }
     stats.stepsWithZones += stats.zoneRounds > 0;
@@ -1621,7 +1608,7 @@ void collideCloth(World& world, const StepContext& ctx) {
     const RunChecks* checks = world.tryResource<RunChecks>();
     const bool checking = checks && checks->contact;
     if (checking || !s.tangled.empty() || (s.kinematic && stats.heldStill)) {
-        Stage stage(ctx, "cloth_collision.audit");
+        ProfileStage stage(ctx.profiler, "cloth_collision.audit");
         findCrossings(s, s.x, s.found);
         report(world, ctx, s, checking, false);
         s.tangled.swap(s.found);

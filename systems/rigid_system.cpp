@@ -4,6 +4,7 @@
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
+#include "engine/profiler.h"
 #include "engine/transform.h"
 #include "systems/box2d_bridge.h"
 #include "systems/bullet_bridge.h"
@@ -507,12 +508,20 @@ void registerRigidSystem(Catalog& catalog) {
 }
 
 void syncRigidIn(World& world, const StepContext& ctx) {
-    bulletSyncIn(world, ctx);
+    {
+        ProfileStage stage(ctx.profiler, "rigid_in.bullet");
+        bulletSyncIn(world, ctx);
+    }
+    ProfileStage stage(ctx.profiler, "rigid_in.box2d");
     box2dSyncIn(world, ctx);
 }
 
 void syncRigidOut(World& world, const StepContext& ctx) {
-    bulletSyncOut(world, ctx);
+    {
+        ProfileStage stage(ctx.profiler, "rigid_out.bullet");
+        bulletSyncOut(world, ctx);
+    }
+    ProfileStage stage(ctx.profiler, "rigid_out.box2d");
     box2dSyncOut(world, ctx);
 }
 

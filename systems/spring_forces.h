@@ -18,11 +18,16 @@
 #include <vector>
 
 namespace tumble {
+class Profiler;
+}
+
+namespace tumble {
 
 /// What acts on a network besides its springs.
 struct Environment {
     Vec3 gravity;                                    ///< m/s^2
     const std::vector<ForceField>* fields = nullptr; ///< the scene's force fields, or none
+    Profiler* profiler = nullptr;                    ///< for the integrators' stages; null when untimed
 };
 
 /// Gravity, drag and force fields on every mass (f is overwritten).

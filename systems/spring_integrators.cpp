@@ -1,5 +1,9 @@
 #include "systems/spring_integrators.h"
 
+#include "engine/profiler.h"
+
+#include <optional>
+
 namespace tumble {
 
 namespace {
@@ -157,6 +161,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         findPinnedBlocks(net, w);
     }
     BlockMatrix<S>& a = w.system;
+    std::optional<ProfileStage> stage(std::in_place, env.profiler, "springs.assemble");
     // the springs' forces are added below, with their Jacobians, from one length and direction each
     externalForces(net, env, net.x, net.v, work.f);
 
@@ -217,6 +222,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         }
     }
 
+    stage.emplace(env.profiler, "springs.solve");
     w.multigrid.update(a);
     const SolveStats stats =
         solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg);

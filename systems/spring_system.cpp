@@ -464,7 +464,8 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
 void integrateSprings(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Pool<ForceField>* fields = world.findPool<ForceField>();
-    const Environment env{{g[0], g[1], g[2]}, fields && fields->size() > 0 ? &fields->values() : nullptr};
+    const Environment env{
+        {g[0], g[1], g[2]}, fields && fields->size() > 0 ? &fields->values() : nullptr, ctx.profiler};
     world.view<const Name, SpringNetwork, SpringWorkspace>().each(
         [&](Entity, const Name& name, SpringNetwork& net, SpringWorkspace& work) {
             if (net.frozen) {

@@ -2,6 +2,7 @@
 
 #include "components/rigid_body.h"
 #include "engine/name.h"
+#include "engine/profiler.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
@@ -332,7 +333,11 @@ void stepWater(World& world, const StepContext& ctx) {
                 std::to_string(courant) + "); it takes " + std::to_string(substeps) + " wave steps per step");
         }
         w.substeps = substeps;
-        couple(world, w, gravity, ctx.dt);
+        {
+            ProfileStage stage(ctx.profiler, "water.bodies");
+            couple(world, w, gravity, ctx.dt);
+        }
+        ProfileStage stage(ctx.profiler, "water.waves");
         for (std::uint32_t s = 0; s < substeps; ++s) {
             waveStep(w, ctx.dt / substeps);
         }

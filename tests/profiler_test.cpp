@@ -106,6 +106,36 @@ TEST(Profiler, FramePhysicsSumsFixedPhaseAndCountsOverBudget) {
     EXPECT_EQ(fs.overBudgetFrames, 2u);
 }
 
+// a system's stages are listed right after it, marked as its stages, and do not count twice in the
+// frame's physics (their system's phase already holds their time)
+TEST(Profiler, StagesAreListedUnderTheirSystemAndNotAddedToPhysics) {
+    Profiler p;
+    const int phase = p.addSlot("phase:fixed", Phase::Fixed, true);
+    const int springs = p.addSlot("springs", Phase::Fixed, false);
+    const int water = p.addSlot("water", Phase::Fixed, false);
+    p.beginFrame(1);
+    p.record(water, 0, 1 * kMs);
+    // stages made on first use, after every system; the springs' after the water's slot
+    const int solve = p.stageSlot("springs.solve", Phase::Fixed);
+    p.record(solve, 0, 3 * kMs);
+    { ProfileStage untimed(nullptr, "springs.assemble"); }
+    { ProfileStage timed(&p, "springs.assemble"); }
+    EXPECT_EQ(p.stageSlot("springs.solve", Phase::Fixed), solve) << "a stage's slot is made once";
+    p.record(springs, 0, 4 * kMs);
+    p.record(phase, 0, 5 * kMs);
+    p.endFrame();
+    std::vector<std::string> names, owners;
+    for (const SlotStats& st : p.slotStats()) {
+        names.push_back(st.name);
+        owners.push_back(st.stageOf);
+    }
+    EXPECT_EQ(names, (std::vector<std::string>{"phase:fixed", "springs", "springs.solve", "springs.assemble",
+                                               "water"}));
+    EXPECT_EQ(owners, (std::vector<std::string>{"", "", "springs", "springs", ""}));
+    EXPECT_EQ(p.slotStats()[3].calls, 1u) << "the untimed stage recorded nothing";
+    EXPECT_NEAR(p.frameStats().physicsMaxMs, 5.0, 1e-9) << "only the phase counts as physics";
+}
+
 TEST(Profiler, ScopedTimerMeasuresItsScope) {
     Profiler p;
     const int s = p.addSlot("sleepy", Phase::Frame, false);
