@@ -3,6 +3,7 @@
 #include "components/joint.h"
 #include "components/rigid_body_2d.h"
 #include "engine/transform.h"
+#include "systems/bridge_slots.h"
 
 #include <box2d/box2d.h>
 
@@ -35,10 +36,8 @@ struct JointSlot {
 struct Box2DWorld::Impl {
     b2World world;
     b2Body* ground = nullptr; ///< static, at the origin: what joints to the world hold on to
-    std::vector<BodySlot> bodies;
-    std::vector<std::int32_t> freeBodies;
-    std::vector<JointSlot> joints;
-    std::vector<std::int32_t> freeJoints;
+    SlotTable<BodySlot> bodies;
+    SlotTable<JointSlot> joints;
     int velocityIterations = 8, positionIterations = 3;
 
     explicit Impl(const SceneDef& scene) : world(b2Vec2(float(scene.gravity[0]), float(scene.gravity[1]))) {
@@ -84,18 +83,6 @@ double shapeArea2D(const RigidBody2D& b) {
 
 namespace {
 
-template <class Slot>
-std::int32_t take(std::vector<Slot>& slots, std::vector<std::int32_t>& free, Slot slot) {
-    if (!free.empty()) {
-        const std::int32_t id = free.back();
-        free.pop_back();
-        slots[std::size_t(id)] = slot;
-        return id;
-    }
-    slots.push_back(slot);
-    return std::int32_t(slots.size() - 1);
-}
-
 std::int32_t addBody(Box2DWorld::Impl& impl, Entity e, const RigidBody2D& rb) {
     b2BodyDef def;
     def.type = rb.dynamic() ? b2_dynamicBody : b2_staticBody;
@@ -137,7 +124,7 @@ std::int32_t addBody(Box2DWorld::Impl& impl, Entity e, const RigidBody2D& rb) {
         break;
     }
     body->CreateFixture(&fixture);
-    return take(impl.bodies, impl.freeBodies, BodySlot{e, body});
+    return impl.bodies.take(BodySlot{e, body});
 }
 
 /// The Box2D joint for j between bodies a and b (Box2D's order: the caller passes the joint's b first).
@@ -192,19 +179,25 @@ RigidBody2D* jointBody(World& world, Entity e) {
 
 } // namespace
 
-void box2dSyncIn(World& world, const StepContext&) {
-    Box2DWorld* bw = world.tryResource<Box2DWorld>();
-    if (!bw) {
-        const Pool<RigidBody2D>* pool = world.findPool<RigidBody2D>();
-        if (!pool || pool->size() == 0) {
-            return;
-        }
-        bw = &world.setResource<Box2DWorld>(world.resource<SceneDef>());
-    }
-    Box2DWorld::Impl& impl = bw->impl();
+namespace {
 
-    // joints whose joint entity or bodies are gone go first (Box2D would destroy them with a body, but the
-    // slot must go too), then bodies whose entities are gone
+// box2dSyncIn's stages, named as bulletSyncIn's are
+
+/// The Box2D world, made on the first step that has a 2D body; null while there is none.
+Box2DWorld::Impl* createWorld(World& world) {
+    if (Box2DWorld* bw = world.tryResource<Box2DWorld>()) {
+        return &bw->impl();
+    }
+    const Pool<RigidBody2D>* pool = world.findPool<RigidBody2D>();
+    if (!pool || pool->size() == 0) {
+        return nullptr;
+    }
+    return &world.setResource<Box2DWorld>(world.resource<SceneDef>()).impl();
+}
+
+/// Joints whose joint entity or bodies are gone (first: Box2D would destroy them with a body, but the slot
+/// must go too).
+void removeDeadJoints(World& world, Box2DWorld::Impl& impl) {
     for (std::size_t i = 0; i < impl.joints.size(); ++i) {
         const Entity je = impl.joints[i].joint;
         if (je == kNullEntity) {
@@ -214,10 +207,13 @@ void box2dSyncIn(World& world, const StepContext&) {
         if (!j || j->constraintId != std::int32_t(i) || !jointBody(world, j->a) ||
             (j->b != kNullEntity && !jointBody(world, j->b))) {
             impl.world.DestroyJoint(impl.joints[i].joint2d);
-            impl.joints[i] = JointSlot{};
-            impl.freeJoints.push_back(std::int32_t(i));
+            impl.joints.release(std::int32_t(i));
         }
     }
+}
+
+/// Bodies whose entities (or RigidBody2D components) are gone.
+void removeDeadBodies(World& world, Box2DWorld::Impl& impl) {
     for (std::size_t i = 0; i < impl.bodies.size(); ++i) {
         const Entity e = impl.bodies[i].entity;
         if (e == kNullEntity) {
@@ -226,11 +222,13 @@ void box2dSyncIn(World& world, const StepContext&) {
         const RigidBody2D* b = world.alive(e) ? world.tryGet<RigidBody2D>(e) : nullptr;
         if (!b || b->bodyId != std::int32_t(i)) {
             impl.world.DestroyBody(impl.bodies[i].body);
-            impl.bodies[i] = BodySlot{};
-            impl.freeBodies.push_back(std::int32_t(i));
+            impl.bodies.release(std::int32_t(i));
         }
     }
+}
 
+/// New bodies, in entity order; then what was set (teleported) or pushed (impulses) onto existing ones.
+void addBodiesAndApplyPushes(World& world, Box2DWorld::Impl& impl) {
     world.view<RigidBody2D>().each([&](Entity e, RigidBody2D& b) {
         if (b.bodyId < 0) {
             b.bodyId = addBody(impl, e, b);
@@ -254,7 +252,10 @@ void box2dSyncIn(World& world, const StepContext&) {
             b.angularImpulse = 0.0;
         }
     });
+}
 
+/// New joints.
+void addJoints(World& world, Box2DWorld::Impl& impl) {
     world.view<Joint>().each([&](Entity e, Joint& j) {
         if (!j.twoD) {
             return;
@@ -271,8 +272,21 @@ void box2dSyncIn(World& world, const StepContext&) {
         // Box2D measures a joint's angle and travel as its second body's relative to its first: b (or the
         // ground) first, so that limits are a's turn or travel relative to b, as in the Bullet bridge
         b2Joint* joint = makeJoint(impl, j, b ? impl.body(b->bodyId) : impl.ground, impl.body(a->bodyId));
-        j.constraintId = take(impl.joints, impl.freeJoints, JointSlot{e, joint});
+        j.constraintId = impl.joints.take(JointSlot{e, joint});
     });
+}
+
+} // namespace
+
+void box2dSyncIn(World& world, const StepContext&) {
+    Box2DWorld::Impl* impl = createWorld(world);
+    if (!impl) {
+        return; // no 2D bodies: no Box2D world
+    }
+    removeDeadJoints(world, *impl);
+    removeDeadBodies(world, *impl);
+    addBodiesAndApplyPushes(world, *impl);
+    addJoints(world, *impl);
 }
 
 void box2dStep(World& world, const StepContext& ctx) {

@@ -1,7 +1,8 @@
 #pragma once
 // The bridge to Box2D (2D rigid bodies in the scene's xy plane). A resource, Box2DWorld, owns the b2World;
 // RigidBody2D and Joint components hold the ids. The same three steps as the Bullet bridge
-// (systems/bullet_bridge.h): box2dSyncIn makes and removes bodies and joints and copies in what was pushed,
+// (systems/bullet_bridge.h), box2dSyncIn in the same stages under the same names (create world, remove dead
+// joints, remove dead bodies, add bodies and apply pushes, add joints) with the same slot bookkeeping,
 // box2dStep takes one b2World::Step of the scene's dt with the scene's velocity and position iterations,
 // box2dSyncOut copies poses and velocities back. Box2D works in float (its only build).
 

@@ -5,6 +5,7 @@
 #include "engine/name.h"
 #include "engine/run_report.h"
 #include "engine/transform.h"
+#include "systems/bridge_slots.h"
 
 #include <btBulletDynamicsCommon.h>
 
@@ -37,7 +38,7 @@ struct BodySlot {
     std::unique_ptr<btRigidBody> body;
 };
 
-struct ConstraintSlot {
+struct JointSlot {
     Entity joint;
     std::unique_ptr<btTypedConstraint> constraint; ///< none for a spring: its force is applied each step
 };
@@ -51,13 +52,11 @@ struct BulletWorld::Impl {
     btDbvtBroadphase broadphase;
     btSequentialImpulseConstraintSolver solver;
     btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
-    std::vector<BodySlot> bodies;
-    std::vector<std::int32_t> freeBodies;
-    std::vector<ConstraintSlot> constraints;
-    std::vector<std::int32_t> freeConstraints;
+    SlotTable<BodySlot> bodies;
+    SlotTable<JointSlot> joints;
 
     ~Impl() {
-        for (ConstraintSlot& c : constraints) {
+        for (JointSlot& c : joints) {
             if (c.constraint) {
                 world.removeConstraint(c.constraint.get());
             }
@@ -73,8 +72,8 @@ struct BulletWorld::Impl {
 
     std::int32_t addBody(Entity e, const RigidBody& rb);
     void removeBody(std::int32_t id);
-    std::int32_t addConstraint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b);
-    void removeConstraint(std::int32_t id);
+    std::int32_t addJoint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b);
+    void removeJoint(std::int32_t id);
 };
 
 namespace {
@@ -174,23 +173,12 @@ std::int32_t BulletWorld::Impl::addBody(Entity e, const RigidBody& rb) {
         }
     }
     world.addRigidBody(slot.body.get());
-    std::int32_t id;
-    if (!freeBodies.empty()) {
-        id = freeBodies.back();
-        freeBodies.pop_back();
-        bodies[std::size_t(id)] = std::move(slot);
-    } else {
-        id = std::int32_t(bodies.size());
-        bodies.push_back(std::move(slot));
-    }
-    return id;
+    return bodies.take(std::move(slot));
 }
 
 void BulletWorld::Impl::removeBody(std::int32_t id) {
-    BodySlot& slot = bodies[std::size_t(id)];
-    world.removeRigidBody(slot.body.get());
-    slot = BodySlot{};
-    freeBodies.push_back(id);
+    world.removeRigidBody(bodies[std::size_t(id)].body.get());
+    bodies.release(id);
 }
 
 namespace {
@@ -215,8 +203,7 @@ btTransform jointFrame(const Joint& j) {
 
 } // namespace
 
-std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j, RigidBody& a,
-                                              RigidBody* b) {
+std::int32_t BulletWorld::Impl::addJoint(Entity jointEntity, const Joint& j, RigidBody& a, RigidBody* b) {
     btRigidBody& ra = *body(a.bodyId);
     btRigidBody& rb = b ? *body(b->bodyId) : btTypedConstraint::getFixedBody();
     const btTransform shared = jointFrame(j);
@@ -256,26 +243,14 @@ std::int32_t BulletWorld::Impl::addConstraint(Entity jointEntity, const Joint& j
         // the bodies a joint holds together do not also collide with each other
         world.addConstraint(c.get(), true);
     }
-    ConstraintSlot slot{jointEntity, std::move(c)};
-    std::int32_t id;
-    if (!freeConstraints.empty()) {
-        id = freeConstraints.back();
-        freeConstraints.pop_back();
-        constraints[std::size_t(id)] = std::move(slot);
-    } else {
-        id = std::int32_t(constraints.size());
-        constraints.push_back(std::move(slot));
-    }
-    return id;
+    return joints.take(JointSlot{jointEntity, std::move(c)});
 }
 
-void BulletWorld::Impl::removeConstraint(std::int32_t id) {
-    ConstraintSlot& slot = constraints[std::size_t(id)];
-    if (slot.constraint) {
-        world.removeConstraint(slot.constraint.get());
+void BulletWorld::Impl::removeJoint(std::int32_t id) {
+    if (btTypedConstraint* c = joints[std::size_t(id)].constraint.get()) {
+        world.removeConstraint(c);
     }
-    slot = ConstraintSlot{};
-    freeConstraints.push_back(id);
+    joints.release(id);
 }
 
 namespace {
@@ -312,29 +287,39 @@ void applySpring(BulletWorld::Impl& impl, const Joint& j, const RigidBody& a, co
 
 } // namespace
 
-void bulletSyncIn(World& world, const StepContext&) {
-    BulletWorld* bw = world.tryResource<BulletWorld>();
-    if (!bw) {
-        const Pool<RigidBody>* pool = world.findPool<RigidBody>();
-        if (!pool || pool->size() == 0) {
-            return; // no 3D bodies: no Bullet world
-        }
-        bw = &world.setResource<BulletWorld>(world.resource<SceneDef>());
-    }
-    BulletWorld::Impl& impl = bw->impl();
+namespace {
 
-    // constraints whose joint or bodies are gone go first, then bodies whose entities are gone
-    for (std::size_t i = 0; i < impl.constraints.size(); ++i) {
-        const Entity je = impl.constraints[i].joint;
+// bulletSyncIn's stages, named as box2dSyncIn's are
+
+/// The Bullet world, made on the first step that has a 3D body; null while there is none.
+BulletWorld::Impl* createWorld(World& world) {
+    if (BulletWorld* bw = world.tryResource<BulletWorld>()) {
+        return &bw->impl();
+    }
+    const Pool<RigidBody>* pool = world.findPool<RigidBody>();
+    if (!pool || pool->size() == 0) {
+        return nullptr;
+    }
+    return &world.setResource<BulletWorld>(world.resource<SceneDef>()).impl();
+}
+
+/// Joints whose joint entity or bodies are gone (first: a joint must go before its bodies).
+void removeDeadJoints(World& world, BulletWorld::Impl& impl) {
+    for (std::size_t i = 0; i < impl.joints.size(); ++i) {
+        const Entity je = impl.joints[i].joint;
         if (je == kNullEntity) {
             continue;
         }
         const Joint* j = world.alive(je) ? world.tryGet<Joint>(je) : nullptr;
         if (!j || j->constraintId != std::int32_t(i) || !jointBody(world, j->a) ||
             (j->b != kNullEntity && !jointBody(world, j->b))) {
-            impl.removeConstraint(std::int32_t(i));
+            impl.removeJoint(std::int32_t(i));
         }
     }
+}
+
+/// Bodies whose entities (or RigidBody components) are gone.
+void removeDeadBodies(World& world, BulletWorld::Impl& impl) {
     for (std::size_t i = 0; i < impl.bodies.size(); ++i) {
         const Entity e = impl.bodies[i].entity;
         if (e == kNullEntity) {
@@ -345,8 +330,10 @@ void bulletSyncIn(World& world, const StepContext&) {
             impl.removeBody(std::int32_t(i));
         }
     }
+}
 
-    // new bodies, in entity order; then what was pushed onto existing ones
+/// New bodies, in entity order; then what was set (teleported) or pushed (impulses) onto existing ones.
+void addBodiesAndApplyPushes(World& world, BulletWorld::Impl& impl) {
     world.view<RigidBody>().each([&](Entity e, RigidBody& b) {
         if (b.bodyId < 0) {
             b.bodyId = impl.addBody(e, b);
@@ -370,8 +357,10 @@ void bulletSyncIn(World& world, const StepContext&) {
             b.impulse = b.angularImpulse = Vec3{};
         }
     });
+}
 
-    // joints: new constraints, and the springs' forces
+/// New joints, and the springs' forces (a spring joint is a force applied every step).
+void addJoints(World& world, BulletWorld::Impl& impl) {
     world.view<Joint>().each([&](Entity e, Joint& j) {
         if (j.twoD) {
             return;
@@ -379,11 +368,11 @@ void bulletSyncIn(World& world, const StepContext&) {
         RigidBody* a = jointBody(world, j.a);
         RigidBody* b = j.b == kNullEntity ? nullptr : jointBody(world, j.b);
         if (!a || (j.b != kNullEntity && !b)) {
-            j.constraintId = -1;
+            j.constraintId = -1; // its joint went with the body, above
             return;
         }
         if (j.constraintId < 0) {
-            j.constraintId = impl.addConstraint(e, j, *a, b);
+            j.constraintId = impl.addJoint(e, j, *a, b);
             // the spring's ends, kept in the bodies' frames from here on
             j.localA = a->toLocal(j.pivot);
             j.localB = b ? b->toLocal(j.pivotB) : j.pivotB;
@@ -392,6 +381,19 @@ void bulletSyncIn(World& world, const StepContext&) {
             applySpring(impl, j, *a, b);
         }
     });
+}
+
+} // namespace
+
+void bulletSyncIn(World& world, const StepContext&) {
+    BulletWorld::Impl* impl = createWorld(world);
+    if (!impl) {
+        return; // no 3D bodies: no Bullet world
+    }
+    removeDeadJoints(world, *impl);
+    removeDeadBodies(world, *impl);
+    addBodiesAndApplyPushes(world, *impl);
+    addJoints(world, *impl);
 }
 
 void bulletStep(World& world, const StepContext& ctx) {

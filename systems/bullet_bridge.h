@@ -1,9 +1,10 @@
 #pragma once
 // The bridge to Bullet (3D rigid bodies). A resource, BulletWorld, owns Bullet's btDiscreteDynamicsWorld
 // and every body, shape and constraint in it; RigidBody and Joint components hold the ids. Each fixed step:
-//   bulletSyncIn   makes bodies for new RigidBody components and constraints for new Joints, removes those
-//                  whose entities are gone (constraints first), copies in poses set from outside and the
-//                  impulses that events, springs and particles left on the components;
+//   bulletSyncIn   in stages named as the Box2D bridge's: create the world (on the first step with a body),
+//                  remove dead joints, remove dead bodies, add bodies and apply pushes (poses set from
+//                  outside, the impulses events, springs and particles left on the components), add joints;
+//                  the slots that map ids to Bullet's objects are systems/bridge_slots.h's, shared;
 //   bulletStep     advances Bullet by exactly one internal step of the scene's dt;
 //   bulletSyncOut  copies poses and velocities back into RigidBody and Transform.
 //
