@@ -1,6 +1,6 @@
 #pragma once
-// The `tumble` command line (CONTRACT.md): list, check, run, replay. The engine owns the verbs; the systems
-// arrive through the catalog the caller passes in, so the engine never names a system.
+// The `tumble` command line (README, "Using it"): list, check, run, replay. The engine owns the verbs; the
+// systems arrive through the catalog the caller passes in, so the engine never names a system.
 
 #include "engine/catalog.h"
 
@@ -11,7 +11,7 @@
 
 namespace tumble {
 
-/// Exit codes of CONTRACT.md.
+/// Exit codes (README, "Using it").
 enum ExitCode : int {
     kExitOk = 0,
     kExitFailure = 1,      ///< runtime failure

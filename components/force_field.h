@@ -10,7 +10,7 @@
 
 namespace tumble {
 
-/// The kinds of force field (CONTRACT.md `kind`).
+/// The kinds of force field (README, "Spring networks": `kind`).
 enum class FieldKind : std::uint8_t { Wind, Drag, Vortex, Point };
 
 /// Definition and per-step state of a force field.

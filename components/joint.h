@@ -1,7 +1,7 @@
 #pragma once
-// A joint between two rigid bodies of the same engine, or between a body and the world (CONTRACT.md
-// [[joint]]). A joint is an entity of its own; the bridge makes the engine's constraint from it and removes
-// that constraint when either body is gone.
+// A joint between two rigid bodies of the same engine, or between a body and the world ([[joint]], README
+// "Rigid bodies"). A joint is an entity of its own; the bridge makes the engine's constraint from it and
+// removes that constraint when either body is gone.
 
 #include "engine/entity.h"
 #include "engine/math.h"

@@ -15,7 +15,7 @@
 
 namespace tumble {
 
-/// Where an emitter places new particles (CONTRACT.md `shape`).
+/// Where an emitter places new particles (README, "Particles": `shape`).
 enum class EmitterShape : std::uint8_t { Point, Sphere, Disc, Box };
 
 /// The live particles of one emitter, as parallel arrays; entry i of every array is particle i.

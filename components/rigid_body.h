@@ -17,7 +17,7 @@
 
 namespace tumble {
 
-/// Collision shapes (CONTRACT.md `shape`).
+/// Collision shapes (README, "Rigid bodies": `shape`).
 enum class ShapeKind : std::uint8_t { Plane, Box, Sphere, Capsule, Cylinder, Convex, Mesh };
 
 /// A triangle mesh from an OBJ file, in the body's frame: a convex hull's points or a static mesh.

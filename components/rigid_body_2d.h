@@ -11,7 +11,7 @@
 
 namespace tumble {
 
-/// 2D collision shapes (CONTRACT.md `shape` of rigid_body_2d).
+/// 2D collision shapes (README, "Rigid bodies": `shape` of rigid_body_2d).
 enum class Shape2DKind : std::uint8_t { Box, Circle, Polygon, Edge };
 
 using Vec2 = std::array<double, 2>;

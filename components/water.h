@@ -12,7 +12,7 @@ namespace tumble {
 /// What happens to a wave at the edge of the grid.
 enum class WaterBorder : std::uint8_t { Reflect, Absorb };
 
-/// The height field and its parameters (CONTRACT.md `water`).
+/// The height field and its parameters (README, "Water").
 struct Water {
     int nx = 64, nz = 64;    ///< nodes along x and z (rows run along x, one per z)
     double sizeX = 10.0;     ///< m, from the first node to the last along x

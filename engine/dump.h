@@ -1,5 +1,5 @@
 #pragma once
-// The state dump (JSON Lines, CONTRACT.md) and the state hash. Both walk the world in a fixed order:
+// The state dump (JSON Lines, README "Using it") and the state hash. Both walk the world in a fixed order:
 // entities by ascending slot, and for each the state codecs in registration order, so two runs of the same
 // scenario give the same lines and the same hashes.
 

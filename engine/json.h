@@ -1,7 +1,8 @@
 #pragma once
 // A small streaming JSON writer for the dump, profile and trace files. Doubles are written in their
 // shortest form that reads back to the same bits (std::to_chars); non-finite numbers as NaN, Infinity and
-// -Infinity, which CONTRACT.md asks for so that a blow-up is visible in a dump rather than a broken file.
+// -Infinity, which the dump format asks for (README, "Using it") so that a blow-up is visible in a dump
+// rather than a broken file.
 
 #include <cstdint>
 #include <string>

@@ -1,5 +1,5 @@
 #pragma once
-// Replay files (CONTRACT.md "Replays"): what a run needs to be played again bit for bit, and what it must
+// Replay files (README, "Replays"): what a run needs to be played again bit for bit, and what it must
 // give when it is. Binary, little-endian:
 //
 //   header   "TUMBLERP", u32 format version, u32 n, n bytes of header payload, u64 checksum of the payload

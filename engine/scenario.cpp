@@ -18,7 +18,7 @@ namespace {
 
 constexpr double kHuge = 1e9; // bound on coordinates, m
 constexpr std::string_view kSections[] = {"scene", "budget", "camera", "render"};
-// components of the scenario format (CONTRACT.md) that arrive with later work
+// components of the scenario format (README) that arrive with later work
 
 bool validName(std::string_view s) {
     if (s.empty() || s.size() > 64) {

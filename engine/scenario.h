@@ -1,5 +1,5 @@
 #pragma once
-// The scenario loader: a TOML file (CONTRACT.md) and its --set overrides become a SceneDef, a list of
+// The scenario loader: a TOML file (README, "Using it") and its --set overrides become a SceneDef, a list of
 // events and the entities of a world. toml++ parses; every table is then read against its schema through
 // TableReader, so an unknown key, a wrong type, a value out of range or a non-finite number stops the load
 // with `file:line:col: what is wrong`. Entity components are read by the loaders the systems registered in

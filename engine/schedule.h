@@ -1,9 +1,9 @@
 #pragma once
 // The schedule: systems registered into phases, run in the order they were registered. Order within a
-// phase is stated by registration (systems/builtin.cpp lists the fixed phase in DESIGN.md's order), never
-// by systems naming each other. Each system and each phase runs inside a profiler timer, and the world's
-// queued structural changes are applied when a phase ends. While a system runs, the world holds its declared
-// access (engine/access.h) and refuses anything undeclared.
+// phase is stated by registration (systems/builtin.cpp lists the fixed phase in the order
+// docs/architecture.md explains), never by systems naming each other. Each system and each phase runs inside
+// a profiler timer, and the world's queued structural changes are applied when a phase ends. While a system
+// runs, the world holds its declared access (engine/access.h) and refuses anything undeclared.
 
 #include "engine/access.h"
 #include "engine/phase.h"

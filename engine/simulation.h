@@ -84,7 +84,7 @@ private:
     StepContext m_ctx; ///< the frame being run
 };
 
-/// The budget summary of CONTRACT.md, as JSON.
+/// The budget summary (README, "Budgets"), as JSON.
 std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames);
 
 } // namespace tumble

@@ -1,6 +1,7 @@
 #pragma once
-// Every system Tumble ships, registered into a catalog. The fixed phase runs in DESIGN.md's order:
-// force fields -> emitters -> particles -> springs/cloth -> collisions -> rigid bridges -> water.
+// Every system Tumble ships, registered into a catalog. The fixed phase runs in this order
+// (docs/architecture.md): force fields -> emitters -> particles -> springs/cloth -> collisions -> rigid
+// bridges -> water.
 
 #include "engine/catalog.h"
 

@@ -1,7 +1,7 @@
 #pragma once
 // The mouse spring: how a person holds and throws things in `tumble view`, as events any run can replay.
 //
-// Events (CONTRACT.md [[event]], recorded like any input):
+// Events ([[event]], README "The viewer"; recorded like any input):
 // - grab: value = [i] (a spring network's mass), [x, y, z] (a rigid body's point, body frame), [x, y] (a 2D
 //   body's point) or nothing (a particle emitter); position = the target, world m.
 // - drag: position = the new target. release: lets go.

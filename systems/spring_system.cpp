@@ -94,7 +94,7 @@ void attach(TableReader& r, World& world, Entity entity, SpringNetwork net) {
     world.emplace<SpringWorkspace>(entity);
 }
 
-/// [entity.springs]: masses and links given explicitly (CONTRACT.md).
+/// [entity.springs]: masses and links given explicitly (README, "Spring networks").
 void loadSprings(TableReader& r, World& world, Entity entity, const SceneDef&) {
     SpringNetwork net;
     readCommon(r, net, "symplectic_euler");
@@ -157,7 +157,7 @@ void loadSprings(TableReader& r, World& world, Entity entity, const SceneDef&) {
     attach(r, world, entity, std::move(net));
 }
 
-/// [entity.rope]: a chain of masses (an extension of CONTRACT.md's format).
+/// [entity.rope]: a chain of masses (README, "Spring networks").
 void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
     RopeDef def;
     def.origin = world.get<Transform>(entity).position;
@@ -188,7 +188,7 @@ void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
     attach(r, world, entity, std::move(net));
 }
 
-/// [entity.cloth] (CONTRACT.md).
+/// [entity.cloth] (README, "Spring networks").
 void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
     ClothDef def;
     def.centre = world.get<Transform>(entity).position;
@@ -251,7 +251,7 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scen
     attach(r, world, entity, std::move(net));
 }
 
-/// [entity.softbody] (CONTRACT.md; shear and bend are extensions).
+/// [entity.softbody] (README, "Spring networks").
 void loadSoftBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
     SoftBodyDef def;
     def.centre = world.get<Transform>(entity).position;

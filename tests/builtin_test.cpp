@@ -1,5 +1,5 @@
-// The one table of systems: its run order is the order DESIGN.md states, every system declares what it
-// touches (that the declarations cover what each system does is checked while every demo runs: see
+// The one table of systems: its run order is the order docs/architecture.md states, every system declares
+// what it touches (that the declarations cover what each system does is checked while every demo runs: see
 // PinnedHash and Demo, which run them under the world's access check), and the schedule runs the table.
 
 #include "systems/builtin.h"
@@ -26,7 +26,7 @@ TEST(BuiltinSystems, RunInTheStatedOrder) {
                                                "rigid_in", "bullet", "box2d", "rigid_out", "water"}));
     EXPECT_EQ(frame, (std::vector<std::string>{"render"}));
     // the simulation runs exactly the table, after the engine's event input
-    auto sim = test::simulate("[scene]\nname = \"empty\"\n");
+    auto sim = test::makeSimulation("[scene]\nname = \"empty\"\n");
     EXPECT_EQ(sim->schedule().names(Phase::Fixed), fixed);
     EXPECT_EQ(sim->schedule().names(Phase::Frame), frame);
     EXPECT_EQ(sim->schedule().names(Phase::Input), (std::vector<std::string>{"events"}));

@@ -1,4 +1,5 @@
-// The `tumble` program as users run it: verbs, help, exit codes, and output files that match CONTRACT.md.
+// The `tumble` program as users run it: verbs, help, exit codes, and output files in the formats the README
+// describes.
 
 #include "tests/test_support.h"
 

@@ -147,7 +147,7 @@ radius = 0.4
                 "stretch = 3000.0\nshear = 300.0\nbend = 1.0\npin = \"none\"\nthickness = 0.012\n"
                 "self_collision = true\n";
     }
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     for (int f = 0; f < 120; ++f) {
         sim->runFrame();
     }

@@ -101,7 +101,7 @@ struct Outcome {
 /// Runs the scene step by step and judges every step.
 Outcome judge(const std::string& text, const std::vector<std::string>& cloths, const Colliders& colliders,
               int frames) {
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     std::vector<const SpringNetwork*> nets;
     std::vector<test::Surface> surfaces;
     for (const std::string& c : cloths) {
@@ -210,7 +210,7 @@ class SelfCollidingDemo : public ::testing::TestWithParam<const char*> {};
 TEST_P(SelfCollidingDemo, NeverCrossesAfterAnyStep) {
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + GetParam() + ".toml";
     const std::string text = test::readFile(path);
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     std::vector<std::string> names;
     sim->world().view<const Name, SpringNetwork>().each([&](Entity, const Name& n, SpringNetwork& net) {
         if (net.selfCollision) {
@@ -303,7 +303,7 @@ radius = 0.25
               << "integrator = \"implicit_euler\"\nthickness = " << h << "\nself_collision = true\n";
         text += cloth.str();
     }
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     std::size_t close = 0, missed = 0;
     std::vector<std::array<std::uint32_t, 2>> edges;
     for (int f = 0; f < 120; ++f) {

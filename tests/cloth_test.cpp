@@ -14,7 +14,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 SpringNetwork& network(Simulation& sim, const std::string& name) {
     return test::component<SpringNetwork>(sim, name);
@@ -75,7 +75,7 @@ TEST(ClothBuilder, PinPresets) {
 }
 
 TEST(Cloth, HangingClothAtRestHoldsItsWeightAtThePins) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "hang"
 dt = 0.01
@@ -121,7 +121,7 @@ cg_tolerance = 1e-10
 }
 
 TEST(SoftBody, JellyComesToRestOnTheGroundWithNoVertexBelowIt) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "jelly"
 dt = 0.005
@@ -209,7 +209,7 @@ class DrapeOver : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(DrapeOver, ClothNeverSinksIntoTheCollider) {
     // a flat cloth dropped onto a shape: after every step, no free vertex is inside it beyond a millimetre
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "drape"
 dt = 0.005
@@ -252,7 +252,7 @@ INSTANTIATE_TEST_SUITE_P(Shapes, DrapeOver,
                          });
 
 TEST(Cloth, WindBillowsACurtainDownwind) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "curtain"
 dt = 0.0166666667
@@ -286,7 +286,7 @@ gust = 0.5
 }
 
 TEST(Rope, PinnedRopeSwingsBelowItsPin) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "rope"
 dt = 0.002

@@ -167,7 +167,7 @@ Recovery recover(Simulation& sim, const std::vector<std::string>& cloths, int st
 /// from one of its own sides to the other), raised by `lift` (0: a row of its masses lies exactly in the
 /// flat sheet's plane).
 void twoSheets(double lift) {
-    auto sim = test::simulate(sheets({{"flat", 21}, {"tilted", 15, 0.6}}, 0.02));
+    auto sim = test::makeSimulation(sheets({{"flat", 21}, {"tilted", 15, 0.6}}, 0.02));
     place(*sim, "flat", [](Vec3 p) { return p + Vec3{0.013, 0.0, 0.007}; });
     place(*sim, "tilted", [lift](Vec3 p) {
         const double c = std::cos(0.5236), s = std::sin(0.5236);
@@ -246,7 +246,7 @@ TEST(Untangle, TwoSheetsCrossingExactlyAtARowOfMasses) {
 TEST(Untangle, SheetFoldedThroughItself) {
     // the far half turned over a rounded fold of radius 5 cm and brought back down at 15 degrees, so that
     // it passes through the near half about 37 cm from the fold
-    auto sim = test::simulate(sheets({{"sheet", 25}}, 0.02));
+    auto sim = test::makeSimulation(sheets({{"sheet", 25}}, 0.02));
     place(*sim, "sheet", [](Vec3 p) {
         const double r = 0.05, slope = std::tan(0.4363), pi = 3.14159265358979;
         const double d = p.z + 0.013; // past the fold line (z = -0.013)
@@ -270,7 +270,7 @@ TEST(Untangle, MassPulledThroughTheSheetByHand) {
     // two layers (a sheet folded flat over itself, 3 cm apart); after a few steps, one mass of the upper
     // layer is put 4 cm below the lower one by hand, as a viewer dragging it directly would, and the
     // contact told to look (ClothCollision::recheck)
-    auto sim = test::simulate(sheets({{"sheet", 21}}, 0.02));
+    auto sim = test::makeSimulation(sheets({{"sheet", 21}}, 0.02));
     place(*sim, "sheet", [](Vec3 p) {
         const double r = 0.015, pi = 3.14159265358979;
         const double d = p.z + 0.013;
@@ -315,7 +315,7 @@ TEST(Untangle, DragEventCannotPullAMassThroughTheSheet) {
     // pulling a mass of the upper sheet down through the lower one and the ground below it for half a
     // second: the contact holds it on its side
     std::string text = sheets({{"sheet", 21}}, 0.02);
-    auto probe = test::simulate(text);
+    auto probe = test::makeSimulation(text);
     const SpringNetwork& flat = test::component<SpringNetwork>(*probe, "sheet");
     std::size_t held = 0;
     for (std::size_t i = 0; i < flat.x.size(); ++i) {
@@ -329,7 +329,7 @@ TEST(Untangle, DragEventCannotPullAMassThroughTheSheet) {
            std::to_string(held) + "]\nposition = [0.0, 1.0, 0.0]\n" +
            "[[event]]\nframe = 11\nentity = \"sheet\"\naction = \"drag\"\nposition = [0.0, -0.3, 0.0]\n" +
            "[[event]]\nframe = 70\nentity = \"sheet\"\naction = \"release\"\n";
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     place(*sim, "under", [](Vec3 p) { return p + Vec3{0.011, -0.03, 0.007}; });
     const Recovery r = recover(*sim, {"sheet", "under"}, 100);
     EXPECT_EQ(r.start, 0);

@@ -51,7 +51,7 @@ TEST_P(Demo, RendersAFrameWithSomethingInItAndItsReplayVerifies) {
 
 TEST_P(Demo, DeclaresABudgetWithinHalfAFrameUnlessAStressScene) {
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + GetParam() + ".toml";
-    auto sim = test::simulate(test::readFile(path));
+    auto sim = test::makeSimulation(test::readFile(path));
     const std::string text = test::readFile(path);
     EXPECT_NE(text.find("physics_ms"), std::string::npos) << "every demo declares its [budget] physics_ms";
     if (!sim->scene().stress) {

@@ -12,7 +12,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 TEST(ForceField, WindPushesTowardsTheAirSpeedAndDragOpposesMotion) {
     ForceField wind;
@@ -72,7 +72,7 @@ strength = [4.0, 0.0, 0.0]
 gust = 0.5
 )";
     auto run = [&](const std::string& seed) {
-        auto sim = simulate(scene, {"scene.seed=" + seed});
+        auto sim = makeSimulation(scene, {"scene.seed=" + seed});
         std::vector<double> speeds;
         for (int i = 0; i < 300; ++i) {
             sim->runFrame();
@@ -95,7 +95,7 @@ gust = 0.5
 }
 
 TEST(ForceField, AMassFallsIntoAPointAttractor) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "orbit"
 gravity = [0, 0, 0]

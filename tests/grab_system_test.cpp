@@ -17,7 +17,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 void runFor(Simulation& sim, double seconds) {
     const auto frames = static_cast<int>(std::lround(seconds / sim.scene().frameSeconds()));
@@ -42,7 +42,7 @@ TEST(GrabSystem, HeldMassFollowsTheCriticallyDampedSpringAndConvergesAtFirstOrde
     const double exact = 1.0 - (1.0 + w * t) * std::exp(-w * t);
     double previous = 0.0;
     for (double dt : {0.004, 0.002, 0.001}) {
-        auto sim = simulate(heldMass(dt, 3.0));
+        auto sim = makeSimulation(heldMass(dt, 3.0));
         runFor(*sim, t);
         const double error = std::abs(test::component<SpringNetwork>(*sim, "bob").x[0].x - exact);
         EXPECT_LT(error, 0.05) << "dt " << dt;
@@ -52,7 +52,7 @@ TEST(GrabSystem, HeldMassFollowsTheCriticallyDampedSpringAndConvergesAtFirstOrde
         previous = error;
     }
     // critically damped: it never passes the target
-    auto sim = simulate(heldMass(1.0 / 60.0, 1e-3));
+    auto sim = makeSimulation(heldMass(1.0 / 60.0, 1e-3));
     for (int i = 0; i < 240; ++i) {
         sim->runFrame();
         ASSERT_LE(test::component<SpringNetwork>(*sim, "bob").x[0].x, 1.0 + 1e-9) << "frame " << i;
@@ -61,7 +61,7 @@ TEST(GrabSystem, HeldMassFollowsTheCriticallyDampedSpringAndConvergesAtFirstOrde
 }
 
 TEST(GrabSystem, RigidBodiesArePulledToTheTargetAndLetGo) {
-    auto sim = simulate(R"([scene]
+    auto sim = makeSimulation(R"([scene]
 name = "held"
 gravity = [0, 0, 0]
 [[entity]]
@@ -141,9 +141,9 @@ value = 4
             "[scene]\nname = \"moved\"\n[[entity]]\nname = \"spout\"\n[entity.emitter]\nrate = 10.0\n") +
         kRope + events;
     // the same, with a drag of the rope, which nothing holds
-    auto sim = simulate(scene +
-                        "[[event]]\nframe = 3\nentity = \"rope\"\naction = \"drag\"\nposition = [9, 9, 9]\n");
-    auto undragged = simulate(scene);
+    auto sim = makeSimulation(
+        scene + "[[event]]\nframe = 3\nentity = \"rope\"\naction = \"drag\"\nposition = [9, 9, 9]\n");
+    auto undragged = makeSimulation(scene);
     runFor(*sim, 5.0 / 60.0);
     runFor(*undragged, 5.0 / 60.0);
     const ParticleEmitter& spout = test::component<ParticleEmitter>(*sim, "spout");
@@ -164,7 +164,7 @@ shape = "plane"
 )" + std::string(kRope);
     auto expectError = [&](const std::string& event, const std::string& says) {
         try {
-            simulate(scene + "[[event]]\nframe = 0\n" + event);
+            makeSimulation(scene + "[[event]]\nframe = 0\n" + event);
             ADD_FAILURE() << "accepted: " << event;
         } catch (const ScenarioError& e) {
             EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
@@ -184,12 +184,12 @@ TEST(GrabSystem, SwitchingABigExplicitNetworkToImplicitIsRefusedByTheMemoryTheLo
         "cols = 300\nintegrator = \"symplectic_euler\"\n[[event]]\nframe = 1\nentity = "
         "\"sheet\"\naction = \"set_integrator\"\nvalue = ";
     try {
-        simulate(cloth + "4\n");
+        makeSimulation(cloth + "4\n");
         ADD_FAILURE() << "a 300 x 300 cloth loaded explicit switched to implicit Euler uncharged";
     } catch (const ScenarioError& e) {
         EXPECT_NE(std::string(e.what()).find("did not charge"), std::string::npos) << e.what();
     }
-    EXPECT_NO_THROW(simulate(cloth + "1\n")) << "explicit to explicit costs nothing more";
+    EXPECT_NO_THROW(makeSimulation(cloth + "1\n")) << "explicit to explicit costs nothing more";
 }
 
 } // namespace

@@ -14,7 +14,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 ParticleEmitter& emitter(Simulation& sim) {
     ParticleEmitter* out = nullptr;
@@ -30,8 +30,9 @@ std::string scene(const std::string& emitterKeys, const std::string& extra = "",
 
 TEST(ParticleSystem, BurstThrownUpFollowsTheProjectileWithinSymplecticEulersError) {
     const double v0 = 12.0, g = 9.81, dt = 0.01;
-    auto sim = simulate(scene("burst = 20\nspeed = [12.0, 12.0]\nspread_deg = 0.0\nlifetime = [10.0, 10.0]\n"
-                              "direction = [0, 1, 0]\ncollide = false"));
+    auto sim =
+        makeSimulation(scene("burst = 20\nspeed = [12.0, 12.0]\nspread_deg = 0.0\nlifetime = [10.0, 10.0]\n"
+                             "direction = [0, 1, 0]\ncollide = false"));
     for (int n = 1; n <= 200; ++n) {
         sim->runFrame();
         const double t = n * dt;
@@ -54,7 +55,8 @@ TEST(ParticleSystem, RateBirthsAreExactIncludingFractions) {
              {"100.0", "0.01", 200, 200u},
              {"7.5", "0.01", 200, 15u},
              {"1000.0", "0.0166666667", 60, 1000u}}) {
-        auto sim = simulate(scene("rate = " + rate + "\nlifetime = [100.0, 100.0]\ncollide = false", "", dt));
+        auto sim =
+            makeSimulation(scene("rate = " + rate + "\nlifetime = [100.0, 100.0]\ncollide = false", "", dt));
         for (int i = 0; i < seconds; ++i) {
             sim->runFrame();
         }
@@ -64,7 +66,7 @@ TEST(ParticleSystem, RateBirthsAreExactIncludingFractions) {
 }
 
 TEST(ParticleSystem, SteadyStateCountIsRateTimesLifetime) {
-    auto sim = simulate(scene("rate = 300.0\nlifetime = [2.0, 2.0]\ncollide = false"));
+    auto sim = makeSimulation(scene("rate = 300.0\nlifetime = [2.0, 2.0]\ncollide = false"));
     for (int i = 0; i < 500; ++i) {
         sim->runFrame();
     }
@@ -76,7 +78,8 @@ TEST(ParticleSystem, SteadyStateCountIsRateTimesLifetime) {
 }
 
 TEST(ParticleSystem, FullPoolDropsBirthsAndCountsThem) {
-    auto sim = simulate(scene("burst = 100\nmax_particles = 60\nlifetime = [5.0, 5.0]\ncollide = false"));
+    auto sim =
+        makeSimulation(scene("burst = 100\nmax_particles = 60\nlifetime = [5.0, 5.0]\ncollide = false"));
     sim->runFrame();
     EXPECT_EQ(emitter(*sim).pool.count, 60u);
     EXPECT_EQ(emitter(*sim).dropped, 40u);
@@ -84,13 +87,13 @@ TEST(ParticleSystem, FullPoolDropsBirthsAndCountsThem) {
 }
 
 TEST(ParticleSystem, ParticlesThrownAtAFloorNeverEndUpBelowIt) {
-    auto sim =
-        simulate(scene("rate = 2000.0\nspeed = [5.0, 15.0]\nspread_deg = 40.0\ndirection = [0.3, -1, 0.1]\n"
-                       "lifetime = [3.0, 4.0]\nrestitution = 0.6",
-                       "[entity.transform]\nposition = [0, 2, 0]\n[[entity]]\nname = \"floor\"\n"
-                       "[entity.rigid_body]\nshape = \"plane\"\n[[entity]]\nname = \"ball\"\n"
-                       "[entity.transform]\nposition = [1, 0.2, 0]\n[entity.rigid_body]\nshape = \"sphere\"\n"
-                       "radius = 0.5\n"));
+    auto sim = makeSimulation(
+        scene("rate = 2000.0\nspeed = [5.0, 15.0]\nspread_deg = 40.0\ndirection = [0.3, -1, 0.1]\n"
+              "lifetime = [3.0, 4.0]\nrestitution = 0.6",
+              "[entity.transform]\nposition = [0, 2, 0]\n[[entity]]\nname = \"floor\"\n"
+              "[entity.rigid_body]\nshape = \"plane\"\n[[entity]]\nname = \"ball\"\n"
+              "[entity.transform]\nposition = [1, 0.2, 0]\n[entity.rigid_body]\nshape = \"sphere\"\n"
+              "radius = 0.5\n"));
     std::uint64_t checked = 0;
     for (int i = 0; i < 300; ++i) {
         sim->runFrame();
@@ -108,10 +111,11 @@ TEST(ParticleSystem, ParticlesThrownAtAFloorNeverEndUpBelowIt) {
 
 TEST(ParticleSystem, VortexWithoutDragKeepsEachParticlesRadius) {
     const double omega = 3.0;
-    auto sim = simulate(scene("lifetime = [100.0, 100.0]\ncollide = false\nmax_particles = 64",
-                              "[[entity]]\nname = \"twister\"\n[entity.force_field]\nkind = \"vortex\"\n"
-                              "strength = 3.0\ncoefficient = 0.0\naxis = [0, 1, 0]\n",
-                              "0.001"));
+    auto sim =
+        makeSimulation(scene("lifetime = [100.0, 100.0]\ncollide = false\nmax_particles = 64",
+                             "[[entity]]\nname = \"twister\"\n[entity.force_field]\nkind = \"vortex\"\n"
+                             "strength = 3.0\ncoefficient = 0.0\naxis = [0, 1, 0]\n",
+                             "0.001"));
     // particles circling the axis at the vortex's own angular speed, at several radii and heights
     ParticlePool& p = emitter(*sim).pool;
     Rng rng(5);
@@ -143,10 +147,10 @@ TEST(ParticleSystem, VortexWithoutDragKeepsEachParticlesRadius) {
 }
 
 TEST(ParticleSystem, DirectionsFillTheSpreadConeUniformly) {
-    auto sim =
-        simulate(scene("burst = 20000\nmax_particles = 20000\nspread_deg = 60.0\ndirection = [0, 0, 1]\n"
-                       "speed = [1.0, 1.0]\ncollide = false\nlifetime = [5.0, 5.0]",
-                       "", "0.000001"));
+    auto sim = makeSimulation(
+        scene("burst = 20000\nmax_particles = 20000\nspread_deg = 60.0\ndirection = [0, 0, 1]\n"
+              "speed = [1.0, 1.0]\ncollide = false\nlifetime = [5.0, 5.0]",
+              "", "0.000001"));
     sim->world().resource<SceneDef>().gravity = {0.0, 0.0, 0.0};
     sim->runFrame();
     const ParticlePool& p = emitter(*sim).pool;
@@ -168,7 +172,7 @@ TEST(ParticleSystem, DirectionsFillTheSpreadConeUniformly) {
 TEST(ParticleSystem, SameSeedSameParticlesOtherSeedOthers) {
     const std::string text = scene("rate = 500.0\nspread_deg = 30.0\nspeed = [2.0, 6.0]\nshape = \"sphere\"\n"
                                    "radius = 0.3\ncollide = false");
-    auto a = simulate(text), b = simulate(text), c = simulate(text, {"scene.seed=9"});
+    auto a = makeSimulation(text), b = makeSimulation(text), c = makeSimulation(text, {"scene.seed=9"});
     for (int i = 0; i < 50; ++i) {
         a->runFrame();
         b->runFrame();
@@ -235,8 +239,8 @@ TEST(ParticleSystem, ColourAndSizeOverLife) {
 
 TEST(ParticleSystem, BurstEventGivesBirthAtItsStep) {
     auto sim =
-        simulate(scene("lifetime = [10.0, 10.0]\ncollide = false",
-                       "[[event]]\nframe = 5\nentity = \"spout\"\naction = \"burst\"\nvalue = [42]\n"));
+        makeSimulation(scene("lifetime = [10.0, 10.0]\ncollide = false",
+                             "[[event]]\nframe = 5\nentity = \"spout\"\naction = \"burst\"\nvalue = [42]\n"));
     for (int i = 0; i < 5; ++i) {
         sim->runFrame();
         ASSERT_EQ(emitter(*sim).pool.count, 0u);
@@ -247,7 +251,7 @@ TEST(ParticleSystem, BurstEventGivesBirthAtItsStep) {
 
 TEST(ParticleSystem, RateCountStaysExactOverAHundredThousandSteps) {
     // 100 a second at dt = 0.01 for 1000 s: exactly one birth a step, every step
-    auto sim = simulate(scene("rate = 100.0\nlifetime = [0.5, 0.5]\ncollide = false"));
+    auto sim = makeSimulation(scene("rate = 100.0\nlifetime = [0.5, 0.5]\ncollide = false"));
     for (int i = 1; i <= 100000; ++i) {
         sim->runFrame();
         ASSERT_EQ(emitter(*sim).born, std::uint64_t(i)) << "step " << i;
@@ -261,7 +265,7 @@ TEST(ParticleSystem, SetRateCarriesTheOwedFraction) {
         events += "[[event]]\nat = " + std::to_string(at) +
                   "\nentity = \"spout\"\naction = \"set_rate\"\nvalue = [0.5]\n";
     }
-    auto sim = simulate(scene("rate = 0.5\nlifetime = [100.0, 100.0]\ncollide = false", events));
+    auto sim = makeSimulation(scene("rate = 0.5\nlifetime = [100.0, 100.0]\ncollide = false", events));
     for (int i = 0; i < 600; ++i) {
         sim->runFrame();
     }
@@ -270,11 +274,12 @@ TEST(ParticleSystem, SetRateCarriesTheOwedFraction) {
 
 TEST(ParticleSystem, BounceHeightFollowsRestitution) {
     // dropped from 2 m onto a plane with restitution 0.5: the first rebound tops out near 0.25 x 2 m
-    auto sim = simulate(scene("burst = 1\nspeed = [0.0, 0.0]\nspread_deg = 0.0\nlifetime = [10.0, 10.0]\n"
-                              "restitution = 0.5",
-                              "[entity.transform]\nposition = [0, 2, 0]\n[[entity]]\nname = \"floor\"\n"
-                              "[entity.rigid_body]\nshape = \"plane\"\n",
-                              "0.001"));
+    auto sim =
+        makeSimulation(scene("burst = 1\nspeed = [0.0, 0.0]\nspread_deg = 0.0\nlifetime = [10.0, 10.0]\n"
+                             "restitution = 0.5",
+                             "[entity.transform]\nposition = [0, 2, 0]\n[[entity]]\nname = \"floor\"\n"
+                             "[entity.rigid_body]\nshape = \"plane\"\n",
+                             "0.001"));
     bool bounced = false;
     double top = 0.0;
     for (int i = 0; i < 1500; ++i) {

@@ -39,7 +39,8 @@ const std::map<std::string, std::uint64_t>& pinned() {
 }
 
 std::uint64_t framesHash(const std::string& demo) {
-    auto sim = test::simulate(test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/" + demo + ".toml"));
+    auto sim =
+        test::makeSimulation(test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/" + demo + ".toml"));
     const int frames = sim->scene().stress ? kStressFrames : kFrames;
     std::uint64_t h = 1469598103934665603ull;
     for (int f = 0; f < frames; ++f) {

@@ -32,7 +32,7 @@ struct Image {
 
 /// Renders one frame of a scenario in this process and returns the image.
 Image renderOnce(const std::string& text) {
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = true;
     out.openContext = openHeadlessContext;
@@ -177,7 +177,7 @@ Image redrawAt(Simulation& sim, double alpha) {
 }
 
 std::unique_ptr<Simulation> renderedSimulation(const std::string& text) {
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = true;
     out.openContext = openHeadlessContext;

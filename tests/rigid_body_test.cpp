@@ -43,7 +43,7 @@ struct Fall {
 };
 
 Fall fall3D(double dt, int frames) {
-    auto sim = test::simulate(scene(dt, R"(
+    auto sim = test::makeSimulation(scene(dt, R"(
 [[entity]]
 name = "ball"
 [entity.transform]
@@ -59,7 +59,7 @@ mass = 2.0
 }
 
 Fall fall2D(double dt, int frames) {
-    auto sim = test::simulate(scene(dt, R"(
+    auto sim = test::makeSimulation(scene(dt, R"(
 [[entity]]
 name = "disc"
 [entity.transform]
@@ -97,7 +97,7 @@ TEST(RigidBodies, FreeFallFollowsTheParabolaInBothEngines) {
 }
 
 TEST(RigidBodies, ABoxComesToRestOnTheFloorAtItsHalfHeight) {
-    auto sim = test::simulate(scene(1.0 / 60.0, R"(
+    auto sim = test::makeSimulation(scene(1.0 / 60.0, R"(
 [[entity]]
 name = "floor"
 [entity.rigid_body]
@@ -154,13 +154,13 @@ TEST(RigidBodies, APendulumOnAPointJointSwingsWithThePhysicalPendulumsPeriod) {
     const std::string at =
         "[" + std::to_string(L * std::sin(theta)) + ", " + std::to_string(5.0 - L * std::cos(theta)) + ", 0]";
     for (bool twoD : {false, true}) {
-        auto sim =
-            test::simulate(scene(dt, "[[entity]]\nname = \"bob\"\n[entity.transform]\nposition = " + at +
-                                         (twoD ? "\n[entity.rigid_body_2d]\nshape = \"circle\"\n"
-                                               : "\n[entity.rigid_body]\nshape = \"sphere\"\n") +
-                                         "radius = " + std::to_string(r) +
-                                         "\nmass = 1.0\nsleep = false\n"
-                                         "[[joint]]\ntype = \"point\"\na = \"bob\"\npivot = [0, 5, 0]\n"));
+        auto sim = test::makeSimulation(
+            scene(dt, "[[entity]]\nname = \"bob\"\n[entity.transform]\nposition = " + at +
+                          (twoD ? "\n[entity.rigid_body_2d]\nshape = \"circle\"\n"
+                                : "\n[entity.rigid_body]\nshape = \"sphere\"\n") +
+                          "radius = " + std::to_string(r) +
+                          "\nmass = 1.0\nsleep = false\n"
+                          "[[joint]]\ntype = \"point\"\na = \"bob\"\npivot = [0, 5, 0]\n"));
         std::vector<double> x;
         double worstStretch = 0.0;
         for (int i = 0; i < 8 * 120; ++i) {
@@ -207,7 +207,7 @@ axis = [0, 0, 1]
         text += "[[joint]]\ntype = \"hinge\"\na = \"plank_" + std::to_string(i) + "\"\nb = \"plank_" +
                 std::to_string(i + 1) + "\"\npivot = [" + std::to_string(i + 1) + ", 5, 0]\n";
     }
-    auto sim = test::simulate(text);
+    auto sim = test::makeSimulation(text);
     double worst = 0.0;
     for (int f = 0; f < int(3.0 / hdt); ++f) {
         sim->runFrame();
@@ -229,14 +229,14 @@ axis = [0, 0, 1]
 TEST(RigidBodies, ASpringJointOscillatesWithItsPeriodInBothEngines) {
     const double k = 100.0, m = 1.0, dt = 1.0 / 240.0;
     for (bool twoD : {false, true}) {
-        auto sim =
-            test::simulate(scene(dt, std::string("[[entity]]\nname = \"bob\"\n[entity.transform]\n"
-                                                 "position = [0, 4, 0]\n") +
-                                         (twoD ? "[entity.rigid_body_2d]\nshape = \"circle\"\n"
-                                               : "[entity.rigid_body]\nshape = \"sphere\"\n") +
-                                         "radius = 0.1\nmass = 1.0\nsleep = false\n"
-                                         "[[joint]]\ntype = \"spring\"\na = \"bob\"\npivot_b = [0, 5, 0]\n"
-                                         "stiffness = 100.0\n"));
+        auto sim = test::makeSimulation(
+            scene(dt, std::string("[[entity]]\nname = \"bob\"\n[entity.transform]\n"
+                                  "position = [0, 4, 0]\n") +
+                          (twoD ? "[entity.rigid_body_2d]\nshape = \"circle\"\n"
+                                : "[entity.rigid_body]\nshape = \"sphere\"\n") +
+                          "radius = 0.1\nmass = 1.0\nsleep = false\n"
+                          "[[joint]]\ntype = \"spring\"\na = \"bob\"\npivot_b = [0, 5, 0]\n"
+                          "stiffness = 100.0\n"));
         std::vector<double> y;
         for (int i = 0; i < 4 * 240; ++i) {
             sim->runFrame();
@@ -260,7 +260,7 @@ TEST(RigidBodies, ASliderKeepsItsBodyOnItsAxisAndAWeldKeepsTheirPoses) {
         const std::string body =
             twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.2, 0.2]\n"
                  : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.2, 0.2, 0.2]\n";
-        auto sim = test::simulate(scene(
+        auto sim = test::makeSimulation(scene(
             1.0 / 60.0, "[[entity]]\nname = \"car\"\n[entity.transform]\nposition = [0, 2, 0]\n" + body +
                             "mass = 1.0\nsleep = false\n" +
                             "[[entity]]\nname = \"load\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
@@ -294,7 +294,7 @@ TEST(RigidBodies, JointLimitsAreTheTurnAndTravelOfARelativeToBInBothEngines) {
         const std::string lever =
             twoD ? "[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.5, 0.05]\n"
                  : "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.5, 0.05, 0.05]\n";
-        auto sim = test::simulate(scene(
+        auto sim = test::makeSimulation(scene(
             1.0 / 120.0, "[[entity]]\nname = \"lever\"\n[entity.transform]\nposition = [0.5, 2, 0]\n" +
                              lever + "mass = 1.0\nsleep = false\n" +
                              "[[entity]]\nname = \"block\"\n[entity.transform]\nposition = [5, 2, 0]\n" +
@@ -348,7 +348,7 @@ mass = 1.0
 TEST(RigidBodies, TheSameSceneGivesTheSameBitsTwice) {
     std::vector<std::uint64_t> hashes[2];
     for (auto& h : hashes) {
-        auto sim = test::simulate(scene(1.0 / 60.0, kPile));
+        auto sim = test::makeSimulation(scene(1.0 / 60.0, kPile));
         for (int f = 0; f < 120; ++f) {
             sim->runFrame();
             h.push_back(sim->hash());
@@ -359,7 +359,7 @@ TEST(RigidBodies, TheSameSceneGivesTheSameBitsTwice) {
 }
 
 TEST(RigidBodies, DestroyingAnEntityRemovesItsBodyAndJoints) {
-    auto sim = test::simulate(scene(1.0 / 60.0, R"(
+    auto sim = test::makeSimulation(scene(1.0 / 60.0, R"(
 [[entity]]
 name = "a"
 [entity.transform]
@@ -424,7 +424,7 @@ pivot = [0.5, 5, 0]
 }
 
 TEST(RigidBodies, AnImpulseEventChangesVelocityByJOverM) {
-    auto sim = test::simulate(scene(1.0 / 60.0, R"(
+    auto sim = test::makeSimulation(scene(1.0 / 60.0, R"(
 [[entity]]
 name = "puck"
 [entity.rigid_body]
@@ -452,7 +452,7 @@ value = [8.0, 0.0]
 }
 
 TEST(RigidBodies, ClothDrapesOverAFallingCrateAndWeighsOnIt) {
-    auto sim = test::simulate(scene(1.0 / 60.0, R"(
+    auto sim = test::makeSimulation(scene(1.0 / 60.0, R"(
 [[entity]]
 name = "floor"
 [entity.rigid_body]
@@ -502,7 +502,7 @@ TEST(RigidBodies, ACrateHangsFromARopeThatStretchesByItsWeight) {
     // a rope of 10 links (k = 20000 N/m each) pinned at the top, its last mass anchored to a 10 kg crate's
     // top. At rest link j (from the top) carries the crate and the rope masses below it:
     // T_j = (M + (10 - j) m) g, and the crate sits lower by sum_j T_j / k.
-    auto sim = test::simulate(scene(1.0 / 60.0, R"(
+    auto sim = test::makeSimulation(scene(1.0 / 60.0, R"(
 [[entity]]
 name = "rope"
 [entity.transform]
@@ -548,7 +548,7 @@ b = "crate"
 TEST(RigidBodies, ParticlesBounceOffAMovingPaddle) {
     // zero gravity; a paddle rising at 2 m/s, particles falling onto it at 3 m/s, restitution 1: they leave
     // at 2 * 2 + 3 = 7 m/s upwards (the elastic bounce off a moving wall)
-    auto sim = test::simulate(R"(
+    auto sim = test::makeSimulation(R"(
 [scene]
 name = "t"
 gravity = [0, 0, 0]

@@ -12,7 +12,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 const std::string kPendulum = R"(
 [scene]
@@ -35,7 +35,7 @@ std::map<std::string, Entity> byName(World& w) {
 }
 
 TEST(Scenario, DefaultsFillWhatTheFileLeavesOut) {
-    auto sim = simulate("[scene]\nname = \"minimal\"\n");
+    auto sim = makeSimulation("[scene]\nname = \"minimal\"\n");
     const SceneDef& s = sim->scene();
     EXPECT_EQ(s.name, "minimal");
     EXPECT_DOUBLE_EQ(s.dt, 1.0 / 60.0);
@@ -48,7 +48,7 @@ TEST(Scenario, DefaultsFillWhatTheFileLeavesOut) {
 }
 
 TEST(Scenario, SpringsAreBuiltAtTheEntityTransform) {
-    auto sim = simulate(kPendulum);
+    auto sim = makeSimulation(kPendulum);
     World& w = sim->world();
     const Entity bob = byName(w).at("bob");
     const auto& net = w.get<SpringNetwork>(bob);
@@ -62,9 +62,9 @@ TEST(Scenario, SpringsAreBuiltAtTheEntityTransform) {
 }
 
 TEST(Scenario, OverridesAreTypedAndCheckedByTheSchema) {
-    auto sim = simulate(kPendulum, {"scene.dt=0.005", "scene.substeps=3", "bob.springs.stiffness=50",
-                                    "bob.transform.position=[0, 0, 0]", "budget.physics_ms=2.5",
-                                    "bob.springs.integrator=symplectic_euler"});
+    auto sim = makeSimulation(kPendulum, {"scene.dt=0.005", "scene.substeps=3", "bob.springs.stiffness=50",
+                                          "bob.transform.position=[0, 0, 0]", "budget.physics_ms=2.5",
+                                          "bob.springs.integrator=symplectic_euler"});
     EXPECT_EQ(sim->scene().dt, 0.005);
     EXPECT_EQ(sim->scene().substeps, 3);
     EXPECT_EQ(sim->scene().physicsBudgetMs, 2.5);
@@ -76,7 +76,7 @@ TEST(Scenario, OverridesAreTypedAndCheckedByTheSchema) {
 
 TEST(Scenario, OverrideErrorsNameTheOverride) {
     try {
-        simulate(kPendulum, {"scene.substeps=many"});
+        makeSimulation(kPendulum, {"scene.substeps=many"});
         FAIL() << "expected a ScenarioError";
     } catch (const ScenarioError& e) {
         EXPECT_NE(
@@ -88,7 +88,7 @@ TEST(Scenario, OverrideErrorsNameTheOverride) {
 }
 
 TEST(Scenario, RepeatMakesNumberedCopiesAtOffsets) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "r"
 [[entity]]
@@ -120,7 +120,7 @@ scatter = { count = 50, min = [-1, 0, -2], max = [1, 0.5, 2] }
 masses = [ { x = [0, 0, 0] } ]
 )";
     auto positions = [](const std::string& t, const std::vector<std::string>& o) {
-        auto sim = simulate(t, o);
+        auto sim = makeSimulation(t, o);
         std::vector<Vec3> out;
         for (const auto& [n, e] : byName(sim->world())) {
             out.push_back(sim->world().get<Transform>(e).position);
@@ -142,7 +142,7 @@ masses = [ { x = [0, 0, 0] } ]
 }
 
 TEST(Scenario, EventsAreStepsSortedByTime) {
-    auto sim = simulate(kPendulum + R"(
+    auto sim = makeSimulation(kPendulum + R"(
 [[event]]
 at = 0.5
 entity = "bob"
@@ -163,10 +163,10 @@ value = [0, 0, 0]
 
 TEST(Scenario, EventTimesBetweenStepsApplyAtTheNextStep) {
     auto at = [&](const std::string& t, const std::string& dt) {
-        return simulate(kPendulum + "[[event]]\nat = " + t +
-                            "\nentity = \"bob\"\naction = \"impulse\"\n"
-                            "value = [0, 0, 1]\n",
-                        {"scene.dt=" + dt})
+        return makeSimulation(kPendulum + "[[event]]\nat = " + t +
+                                  "\nentity = \"bob\"\naction = \"impulse\"\n"
+                                  "value = [0, 0, 1]\n",
+                              {"scene.dt=" + dt})
             ->scenario()
             .events.at(0)
             .step;

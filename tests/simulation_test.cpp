@@ -16,7 +16,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 const std::string kChain = R"(
 [scene]
@@ -67,7 +67,7 @@ TEST(Simulation, DenormalsAreFlushedDuringAStepAndTheCallersModeIsPutBack) {
 }
 
 TEST(Simulation, EachFrameRunsSubstepsFixedSteps) {
-    auto sim = simulate(kChain);
+    auto sim = makeSimulation(kChain);
     for (int i = 0; i < 10; ++i) {
         sim->runFrame();
     }
@@ -85,8 +85,8 @@ TEST(Simulation, EachFrameRunsSubstepsFixedSteps) {
 }
 
 TEST(Simulation, SameScenarioGivesTheSameHashEveryFrame) {
-    auto a = simulate(kChain);
-    auto b = simulate(kChain);
+    auto a = makeSimulation(kChain);
+    auto b = makeSimulation(kChain);
     for (int i = 0; i < 50; ++i) {
         a->runFrame();
         b->runFrame();
@@ -95,9 +95,9 @@ TEST(Simulation, SameScenarioGivesTheSameHashEveryFrame) {
 }
 
 TEST(Simulation, AChangedScenarioGivesAnotherHash) {
-    auto a = simulate(kChain);
-    auto b = simulate(kChain, {"chain.springs.stiffness=301"});
-    auto c = simulate(kChain, {"scene.gravity=[0, -9.8, 0]"});
+    auto a = makeSimulation(kChain);
+    auto b = makeSimulation(kChain, {"chain.springs.stiffness=301"});
+    auto c = makeSimulation(kChain, {"scene.gravity=[0, -9.8, 0]"});
     a->runFrame();
     b->runFrame();
     c->runFrame();
@@ -107,7 +107,7 @@ TEST(Simulation, AChangedScenarioGivesAnotherHash) {
 }
 
 TEST(Simulation, OneFlippedBitOfStateChangesTheHash) {
-    auto sim = simulate(kChain);
+    auto sim = makeSimulation(kChain);
     sim->runFrame();
     const std::uint64_t before = sim->hash();
     SpringNetwork* net = nullptr;
@@ -120,7 +120,7 @@ TEST(Simulation, OneFlippedBitOfStateChangesTheHash) {
 }
 
 TEST(Simulation, DumpLineHasTheContractFieldsAndRoundTrips) {
-    auto sim = simulate(kChain);
+    auto sim = makeSimulation(kChain);
     for (int i = 0; i < 7; ++i) {
         sim->runFrame();
     }
@@ -147,7 +147,7 @@ TEST(Simulation, DumpLineHasTheContractFieldsAndRoundTrips) {
 
 TEST(Simulation, ABlowUpIsCaughtFrozenAndReported) {
     // a spring far too stiff for its step: explicit Euler diverges
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "boom"
 dt = 0.0166666667

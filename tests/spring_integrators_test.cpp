@@ -16,7 +16,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 std::string num(double v) {
     std::ostringstream os;
@@ -30,13 +30,13 @@ struct Oscillator {
 };
 
 std::unique_ptr<Simulation> oscillator(const std::string& integrator, double dt, const Oscillator& o) {
-    return simulate("[scene]\nname = \"osc\"\ngravity = [0, 0, 0]\ndt = " + num(dt) +
-                    "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" + integrator +
-                    "\"\nsolver_precision = \"double\"\ncg_tolerance = 1e-13\n"
-                    "masses = [ { x = [0, 0, 0], pinned = true }, { x = [" +
-                    num(1.0 + o.a) + ", 0, 0], m = " + num(o.m) +
-                    " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " + num(o.k) + ", kd = " + num(o.c) +
-                    " } ]\n");
+    return makeSimulation("[scene]\nname = \"osc\"\ngravity = [0, 0, 0]\ndt = " + num(dt) +
+                          "\n[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" + integrator +
+                          "\"\nsolver_precision = \"double\"\ncg_tolerance = 1e-13\n"
+                          "masses = [ { x = [0, 0, 0], pinned = true }, { x = [" +
+                          num(1.0 + o.a) + ", 0, 0], m = " + num(o.m) +
+                          " } ]\nlinks = [ { a = 0, b = 1, rest = 1.0, k = " + num(o.k) +
+                          ", kd = " + num(o.c) + " } ]\n");
 }
 
 const SpringNetwork& bob(Simulation& sim) {
@@ -163,12 +163,13 @@ TEST(Integrators, MidpointAndRk4DriftSlowly) {
 TEST(Integrators, StiffSpringAtSixtyHertzStaysBoundedUnderImplicitEuler) {
     // k = 1e6 at dt = 1/60: omega h = 16.7, far beyond every explicit method's stability limit
     for (const char* precision : {"double", "float"}) {
-        auto sim = simulate("[scene]\nname = \"stiff\"\ngravity = [0, -9.81, 0]\ndt = 0.016666666666666666\n"
-                            "[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"implicit_euler\"\n"
-                            "solver_precision = \"" +
-                            std::string(precision) +
-                            "\"\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]\n"
-                            "links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]\n");
+        auto sim =
+            makeSimulation("[scene]\nname = \"stiff\"\ngravity = [0, -9.81, 0]\ndt = 0.016666666666666666\n"
+                           "[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"implicit_euler\"\n"
+                           "solver_precision = \"" +
+                           std::string(precision) +
+                           "\"\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]\n"
+                           "links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]\n");
         for (int i = 0; i < 600; ++i) {
             sim->runFrame();
             const SpringNetwork& net = bob(*sim);
@@ -182,11 +183,11 @@ TEST(Integrators, StiffSpringAtSixtyHertzStaysBoundedUnderImplicitEuler) {
 
 TEST(Integrators, StiffSpringUnderExplicitEulerIsCaughtNotCrashed) {
     for (const char* integrator : {"explicit_euler", "midpoint", "rk4", "symplectic_euler"}) {
-        auto sim = simulate("[scene]\nname = \"stiff\"\ndt = 0.016666666666666666\n"
-                            "[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" +
-                            std::string(integrator) +
-                            "\"\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]\n"
-                            "links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]\n");
+        auto sim = makeSimulation("[scene]\nname = \"stiff\"\ndt = 0.016666666666666666\n"
+                                  "[[entity]]\nname = \"bob\"\n[entity.springs]\nintegrator = \"" +
+                                  std::string(integrator) +
+                                  "\"\nmasses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]\n"
+                                  "links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]\n");
         for (int i = 0; i < 120; ++i) {
             ASSERT_NO_THROW(sim->runFrame());
         }

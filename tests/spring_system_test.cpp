@@ -12,7 +12,7 @@
 namespace tumble {
 namespace {
 
-using test::simulate;
+using test::makeSimulation;
 
 SpringNetwork& network(Simulation& sim, const std::string& name) {
     return test::component<SpringNetwork>(sim, name);
@@ -38,7 +38,7 @@ double dampedDisplacement(double t, double k, double m, double c, double a) {
 }
 
 double displacementAfter(double dt, double seconds, double k, double m, double c, double a) {
-    auto sim = simulate(oscillator(dt, k, m, c, a));
+    auto sim = makeSimulation(oscillator(dt, k, m, c, a));
     const auto steps = static_cast<int>(std::lround(seconds / dt));
     for (int i = 0; i < steps; ++i) {
         sim->runFrame();
@@ -50,9 +50,9 @@ TEST(SpringSystem, FreeFallMatchesTheSymplecticEulerSolutionAndConvergesAtFirstO
     const double g = 9.81;
     double previousError = 0.0;
     for (double dt : {0.01, 0.005, 0.0025}) {
-        auto sim =
-            simulate("[scene]\nname = \"fall\"\ndt = " + std::to_string(dt) +
-                     "\n[[entity]]\nname = \"ball\"\n[entity.springs]\nmasses = [ { x = [0, 10, 0] } ]\n");
+        auto sim = makeSimulation(
+            "[scene]\nname = \"fall\"\ndt = " + std::to_string(dt) +
+            "\n[[entity]]\nname = \"ball\"\n[entity.springs]\nmasses = [ { x = [0, 10, 0] } ]\n");
         const int steps = static_cast<int>(std::lround(1.0 / dt));
         for (int i = 0; i < steps; ++i) {
             sim->runFrame();
@@ -73,7 +73,7 @@ TEST(SpringSystem, FreeFallMatchesTheSymplecticEulerSolutionAndConvergesAtFirstO
 TEST(SpringSystem, UndampedPeriodMatchesTwoPiRootMOverK) {
     const double k = 100.0, m = 0.5, dt = 1e-4;
     const double expected = 2.0 * std::numbers::pi * std::sqrt(m / k);
-    auto sim = simulate(oscillator(dt, k, m, 0.0, 0.1));
+    auto sim = makeSimulation(oscillator(dt, k, m, 0.0, 0.1));
     // time between successive upward zero crossings of the displacement
     std::vector<double> crossings;
     double prev = network(*sim, "bob").x[1].x - 1.0;
@@ -103,7 +103,7 @@ TEST(SpringSystem, DampedOscillatorMatchesClosedFormAndConvergesAtFirstOrder) {
 
 TEST(SpringSystem, SymplecticEulerKeepsUndampedEnergyBounded) {
     const double k = 100.0, m = 1.0, dt = 0.01, a = 0.1;
-    auto sim = simulate(oscillator(dt, k, m, 0.0, a));
+    auto sim = makeSimulation(oscillator(dt, k, m, 0.0, a));
     const double e0 = 0.5 * k * a * a;
     auto energy = [&] {
         const SpringNetwork& net = network(*sim, "bob");
@@ -126,7 +126,7 @@ TEST(SpringSystem, SymplecticEulerKeepsUndampedEnergyBounded) {
 }
 
 TEST(SpringSystem, PinnedMassesDoNotMove) {
-    auto sim = simulate(oscillator(0.01, 100.0, 1.0, 0.5, 0.3));
+    auto sim = makeSimulation(oscillator(0.01, 100.0, 1.0, 0.5, 0.3));
     for (int i = 0; i < 300; ++i) {
         sim->runFrame();
     }
@@ -136,7 +136,7 @@ TEST(SpringSystem, PinnedMassesDoNotMove) {
 }
 
 TEST(SpringSystem, ImpulseChangesMomentumByItsValue) {
-    auto sim = simulate(R"(
+    auto sim = makeSimulation(R"(
 [scene]
 name = "kick"
 gravity = [0, 0, 0]

@@ -105,7 +105,8 @@ const Catalog& builtinCatalog() {
     return catalog;
 }
 
-std::unique_ptr<Simulation> simulate(const std::string& text, const std::vector<std::string>& overrides) {
+std::unique_ptr<Simulation> makeSimulation(const std::string& text,
+                                           const std::vector<std::string>& overrides) {
     return std::make_unique<Simulation>(builtinCatalog(), "test.toml", text, overrides);
 }
 

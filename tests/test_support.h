@@ -55,6 +55,7 @@ T& component(Simulation& sim, const std::string& name) {
 }
 
 /// A simulation of scenario text (throws ScenarioError like the CLI would).
-std::unique_ptr<Simulation> simulate(const std::string& text, const std::vector<std::string>& overrides = {});
+std::unique_ptr<Simulation> makeSimulation(const std::string& text,
+                                           const std::vector<std::string>& overrides = {});
 
 } // namespace tumble::test

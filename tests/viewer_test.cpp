@@ -183,7 +183,7 @@ TEST(ViewerRenders, DragOnAClothIsRecordedAndTheReplayVerifiesHeadlessly) {
     const std::string id = window.substr(0, window.find('\n'));
 
     // the pixel of a free mass near the cloth's lower edge, as the renderer's camera projects it
-    auto sim = test::simulate(kScene);
+    auto sim = test::makeSimulation(kScene);
     const SpringNetwork& cloth = test::component<SpringNetwork>(*sim, "cloth");
     const std::size_t vertex = 10 * 12 + 6; // row 10 of 12, the middle column
     const auto vp = viewProjection(sim->scene());

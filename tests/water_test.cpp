@@ -47,11 +47,11 @@ double energy(const Water& w) {
 TEST(Water, APulseFrontTravelsAtTheWaveSpeed) {
     // c = 2 m/s on a 20 m grid of 10 cm cells; a bump of radius 0.3 m in the middle; after 2 s its front is
     // c t beyond the bump's edge
-    auto sim = test::simulate(pool(1.0 / 120.0,
-                                   "cells = [201, 201]\nsize = [20.0, 20.0]\nwave_speed = 2.0\n"
-                                   "border = \"absorb\"\n",
-                                   "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
-                                   "position = [0, 0, 0]\nradius = 0.3\namount = 0.05\n"));
+    auto sim = test::makeSimulation(pool(1.0 / 120.0,
+                                         "cells = [201, 201]\nsize = [20.0, 20.0]\nwave_speed = 2.0\n"
+                                         "border = \"absorb\"\n",
+                                         "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
+                                         "position = [0, 0, 0]\nradius = 0.3\namount = 0.05\n"));
     const double t = 2.0;
     for (int f = 0; f < int(t * 120); ++f) {
         sim->runFrame();
@@ -68,9 +68,10 @@ TEST(Water, APulseFrontTravelsAtTheWaveSpeed) {
 }
 
 TEST(Water, WithoutDampingTheWaveEnergyStaysBounded) {
-    auto sim = test::simulate(pool(1.0 / 60.0, "cells = [64, 64]\nsize = [8.0, 8.0]\nwave_speed = 2.0\n",
-                                   "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
-                                   "position = [1, 0, -0.5]\nradius = 0.6\namount = 0.1\n"));
+    auto sim =
+        test::makeSimulation(pool(1.0 / 60.0, "cells = [64, 64]\nsize = [8.0, 8.0]\nwave_speed = 2.0\n",
+                                  "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
+                                  "position = [1, 0, -0.5]\nradius = 0.6\namount = 0.1\n"));
     sim->runFrame();
     const Water& w = test::component<Water>(*sim, "pond");
     const double start = energy(w);
@@ -91,9 +92,10 @@ TEST(Water, WithoutDampingTheWaveEnergyStaysBounded) {
 
 TEST(Water, AStepBeyondTheCflLimitIsTakenInStableSubsteps) {
     // c = 5 m/s, 5 cm cells, dt = 1/60 s: a Courant number of 2.4, far past the limit of 1
-    auto sim = test::simulate(pool(1.0 / 60.0, "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 5.0\n",
-                                   "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
-                                   "position = [0, 0, 0]\nradius = 0.3\namount = 0.05\n"));
+    auto sim =
+        test::makeSimulation(pool(1.0 / 60.0, "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 5.0\n",
+                                  "[[event]]\nframe = 0\nentity = \"pond\"\naction = \"disturb\"\n"
+                                  "position = [0, 0, 0]\nradius = 0.3\namount = 0.05\n"));
     for (int f = 0; f < 600; ++f) {
         sim->runFrame();
     }
@@ -115,13 +117,13 @@ TEST(Water, AFloatingBoxSettlesAtTheDraftItsDensityPredicts) {
     // a 0.6 m cube of 400 kg/m^3 in water of 1000 kg/m^3 floats with 0.4 of its height under: 0.24 m
     const double side = 0.6, density = 400.0, mass = density * side * side * side;
     auto sim =
-        test::simulate(pool(1.0 / 60.0,
-                            "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 1.5\n"
-                            "damping = 0.5\ndrag = 2.0\n",
-                            "[[entity]]\nname = \"crate\"\n[entity.transform]\nposition = [0, 0.5, 0]\n"
-                            "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.3, 0.3, 0.3]\n"
-                            "sleep = false\nmass = " +
-                                std::to_string(mass) + "\n"));
+        test::makeSimulation(pool(1.0 / 60.0,
+                                  "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 1.5\n"
+                                  "damping = 0.5\ndrag = 2.0\n",
+                                  "[[entity]]\nname = \"crate\"\n[entity.transform]\nposition = [0, 0.5, 0]\n"
+                                  "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.3, 0.3, 0.3]\n"
+                                  "sleep = false\nmass = " +
+                                      std::to_string(mass) + "\n"));
     for (int f = 0; f < 900; ++f) {
         sim->runFrame();
     }
