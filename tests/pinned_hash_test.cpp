@@ -1,6 +1,6 @@
 // Every demo's state hashes over its first frames, pinned (as Box2D pins EXPECTED_HASH): any change of
 // simulated bits fails here, so that it is made on purpose. When a change of bits is intended, run
-//   TUMBLE_PRINT_PINNED=1 build/tests/tumble_tests --gtest_filter='PinnedHash*'
+//   TUMBLE_PRINT_PINNED=1 build/tests/tumble_tests --gtest_filter='*PinnedHash*'
 // and paste the table it prints, saying in the commit why the bits changed.
 //
 // The reference is the state of an earlier build, not a prediction: this test proves only that the bits
