@@ -57,7 +57,7 @@ int commandList() {
 
 int commandCheck(const Catalog& catalog, const RunOptions& o) {
     const std::string path = resolveScenario(o.scenario);
-    Simulation sim(catalog, path, readScenarioFile(path), o.sets, std::uint64_t(o.memoryCapMiB) << 20);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets, std::uint64_t(o.memoryCapMiB) << 20, 1);
     return kExitOk;
 }
 
@@ -71,6 +71,7 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
     }
     Source src;
     src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
+    src.threads = threadsFor(o);
     if (!o.from.empty()) {
         if (!o.scenario.empty()) {
             throw ScenarioError(o.from, 0, 0,
@@ -119,6 +120,7 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
     }
     Source src;
     src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
+    src.threads = threadsFor(o);
     src.path = replay.header.scenarioPath;
     src.text = replay.header.scenarioText;
     src.sets = replay.header.overrides;
@@ -182,7 +184,8 @@ std::string budgetChart(const std::vector<float>& ms, double budget, double scal
 /// `tumble budget`: runs a scenario without rendering and holds its physics p99 to its budget.
 int commandBudget(const Catalog& catalog, const RunOptions& o) {
     const std::string path = resolveScenario(o.scenario);
-    Simulation sim(catalog, path, readScenarioFile(path), o.sets, std::uint64_t(o.memoryCapMiB) << 20);
+    Simulation sim(catalog, path, readScenarioFile(path), o.sets, std::uint64_t(o.memoryCapMiB) << 20,
+                   threadsFor(o));
     const SceneDef& scene = sim.scene();
     const double budget = o.physicsMs.value_or(scene.physicsBudgetMs);
     double scale = 1.0;
@@ -213,8 +216,10 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     const FrameStats f = sim.profiler().frameStats();
     const double limit = budget * scale;
     const bool over = f.physicsP99Ms > limit;
-    std::printf("budget of '%s': %llu frames without rendering, physics budget %.3f ms a frame",
-                scene.name.c_str(), static_cast<unsigned long long>(sim.frame()), budget);
+    std::printf(
+        "budget of '%s': %llu frames without rendering on %d thread%s, physics budget %.3f ms a frame",
+        scene.name.c_str(), static_cast<unsigned long long>(sim.frame()), sim.threads(),
+        sim.threads() == 1 ? "" : "s", budget);
     if (scale != 1.0) {
         std::printf(" (x %.3g scale: %.3f ms)", scale, limit);
     }
@@ -234,6 +239,9 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     }
     std::printf("%-18s %-6s %9.3f %9.3f %9.3f   %s\n", "physics a frame", "", f.physicsP50Ms, f.physicsP99Ms,
                 f.physicsMaxMs, over ? "OVER BUDGET" : "within budget");
+    // the systems' longest chain of waits: a frame's physics on a thread for every system
+    std::printf("%-18s %-6s %9.3f %9.3f %9s   (the longest chain of systems waiting on each other)\n",
+                "critical path", "", f.criticalP50Ms, f.criticalP99Ms, "");
     std::printf("frames over the budget: %llu of %llu\n", static_cast<unsigned long long>(f.overBudgetFrames),
                 static_cast<unsigned long long>(sim.frame()));
     if (chart) {
@@ -257,6 +265,14 @@ void addMemoryCapOption(CLI::App* cmd, RunOptions& o) {
         ->type_name("MIB");
 }
 
+void addThreadsOption(CLI::App* cmd, RunOptions& o) {
+    cmd->add_option("--threads", o.threads,
+                    "Threads the physics runs on (default: $TUMBLE_THREADS, else every hardware thread); any "
+                    "number gives the same bits")
+        ->check(CLI::Range(1, kMaxThreads))
+        ->type_name("N");
+}
+
 void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("scenario", o.scenario, "A scenario file (.toml) or a demo name (see `tumble list`)")
         ->required();
@@ -272,6 +288,7 @@ void addScenarioOptions(CLI::App* cmd, RunOptions& o) {
 void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
     for (CLI::App* cmd : {run, replay}) {
         addMemoryCapOption(cmd, o);
+        addThreadsOption(cmd, o);
         cmd->add_option("--frames", o.frames,
                         "How many frames to run (default: the scene's frames; a replay's own)")
             ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
@@ -336,6 +353,7 @@ void addBudgetVerb(CLI::App& app, RunOptions& o) {
         "budget",
         "Run a scenario without rendering and hold its physics p99 to its budget (exit 3 when over)");
     addScenarioOptions(budgetCmd, o);
+    addThreadsOption(budgetCmd, o);
     budgetCmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
         ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)));
     budgetCmd
@@ -359,6 +377,7 @@ void addViewVerb(CLI::App& app, RunOptions& o) {
         "view",
         "Open a window on a scenario, live: drag things with the mouse, watch the budget (needs a display)");
     addScenarioOptions(viewCmd, o);
+    addThreadsOption(viewCmd, o);
     viewCmd
         ->add_option("--record", o.record,
                      "Write a replay of the session to FILE (after R, the next one to FILE-2, ...); "
@@ -401,6 +420,7 @@ int commandView(const Catalog& catalog, const RunOptions& o, const ViewerFn& vie
     request.scenarioText = readScenarioFile(request.scenarioPath);
     request.sets = o.sets;
     request.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
+    request.threads = threadsFor(o);
     request.record = o.record;
     request.profile = o.profile;
     request.paused = o.paused;

@@ -30,6 +30,7 @@ struct ViewRequest {
     std::string record;            ///< --record FILE: a replay of what happens in the window
     std::string profile;           ///< --profile FILE: the budget summary, written when the window closes
     bool paused = false;           ///< --paused: start with the simulation stopped
+    int threads = 1;               ///< --threads: threads the steps run on
 };
 
 /// The viewer of a program that has one (the engine's CLI itself opens no window).

@@ -7,6 +7,7 @@
 #include "app/video_encoder.h"
 #include "engine/dump.h"
 #include "engine/fixed_loop.h"
+#include "engine/parallel.h"
 #include "engine/render_output.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
@@ -22,6 +23,17 @@
 namespace tumble {
 
 namespace fs = std::filesystem;
+
+int threadsFor(const RunOptions& o) {
+    if (o.threads) {
+        return *o.threads;
+    }
+    try {
+        return defaultThreadCount();
+    } catch (const std::invalid_argument& e) {
+        throw ScenarioError("environment", 0, 0, e.what());
+    }
+}
 
 OutputFile::OutputFile(const std::string& path) : m_path(path) {
     const fs::path p(path);
@@ -188,10 +200,12 @@ std::string describeDivergence(std::uint64_t frame, const ReplayFile& file, cons
 /// naming the replay).
 std::unique_ptr<Simulation> load(const Catalog& catalog, const Source& src) {
     if (!src.replay) {
-        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets, src.memoryCap);
+        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets, src.memoryCap,
+                                            src.threads);
     }
     try {
-        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets, src.memoryCap);
+        return std::make_unique<Simulation>(catalog, src.path, src.text, src.sets, src.memoryCap,
+                                            src.threads);
     } catch (const ScenarioError& e) {
         throw ReplayError(src.replayPath, 0, std::string("its scenario does not load here: ") + e.what());
     }
@@ -470,7 +484,7 @@ std::vector<std::string> RunSession::finishOutputs() {
         m_dump->close();
         wrote.push_back(m_dump->path());
     }
-    m_profile->write(budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame()));
+    m_profile->write(budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame(), m_sim->threads()));
     m_profile->close();
     wrote.push_back(m_profile->path());
     if (m_trace) {

@@ -44,7 +44,12 @@ struct RunOptions {
     std::optional<double> scale;            ///< budget --scale
     std::string chart;                      ///< budget --chart FILE (SVG)
     std::int64_t memoryCapMiB = std::int64_t(kDefaultMemoryCap >> 20); ///< --memory-cap MIB
+    std::optional<int> threads;                                        ///< --threads N
 };
+
+/// The threads a command runs on: --threads, else TUMBLE_THREADS, else every hardware thread. Throws
+/// ScenarioError (bad input) when TUMBLE_THREADS is not a thread count.
+int threadsFor(const RunOptions& o);
 
 /// Where a run's scenario and events come from, and what it holds itself to.
 struct Source {
@@ -56,6 +61,7 @@ struct Source {
     std::uint64_t resume = 0; ///< --from: frames re-simulated (and checked) before the run proper
     std::string replayPath;   ///< the replay or snapshot file, for messages
     std::uint64_t memoryCap = kDefaultMemoryCap; ///< bytes the scene may ask for (--memory-cap)
+    int threads = 1;                             ///< threads the steps run on (any number: the same bits)
 };
 
 /// An output file opened at the start of a run, so that a bad path fails before any work is done.

@@ -545,7 +545,7 @@ private:
 void Viewer::startSession() {
     m_sim.reset(); // the old scene's memory (and GL objects) go before the new one is built
     m_sim = std::make_unique<Simulation>(m_catalog, m_request.scenarioPath, m_request.scenarioText,
-                                         m_request.sets, m_request.memoryCap);
+                                         m_request.sets, m_request.memoryCap, m_request.threads);
     const SceneDef& scene = m_sim->scene();
     // room for twice a frame's steps: paced at 60 Hz, a frame that wakes a little early takes no step and
     // the next one owes two; with a cap of one frame's steps that step would be dropped every time
@@ -974,7 +974,7 @@ int Viewer::runWindow() {
     int status = kExitOk;
     if (!m_request.profile.empty()) {
         std::ofstream profile(m_request.profile);
-        profile << budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame());
+        profile << budgetSummaryJson(m_sim->profiler(), m_sim->scene(), m_sim->frame(), m_sim->threads());
         if (!profile) {
             std::fprintf(stderr, "tumble: cannot write %s\n", m_request.profile.c_str());
             status = kExitFailure;

@@ -26,6 +26,7 @@ struct ParticlePool {
     std::vector<float> lifetime;   ///< s; the particle dies when age reaches it
     std::uint32_t count = 0;       ///< live particles (the arrays are sized to the emitter's capacity)
     std::vector<std::uint32_t> deadGroups; ///< scratch of the update (not state): groups of four with a death
+    std::vector<std::uint32_t> deadCounts; ///< scratch: how many each chunk of the update listed
 };
 
 /// Settings of an emitter (read from the scenario; events may change `rate`).

@@ -1,10 +1,21 @@
 #include "engine/access.h"
 
 #include <algorithm>
+#include <atomic>
 
 namespace tumble {
 
 namespace detail {
+
+std::uint32_t nextTypeId() {
+    static std::atomic<std::uint32_t> counter{0};
+    const std::uint32_t id = counter.fetch_add(1);
+    if (id >= kMaxTypes) {
+        throw std::logic_error("more than " + std::to_string(kMaxTypes) +
+                               " component and resource types; raise detail::kMaxTypes in engine/access.h");
+    }
+    return id;
+}
 
 std::string nameFromSignature(const char* signature) {
     std::string name = signature;

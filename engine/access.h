@@ -23,10 +23,9 @@
 namespace tumble {
 
 namespace detail {
-inline std::uint32_t nextTypeId() {
-    static std::uint32_t counter = 0;
-    return counter++;
-}
+/// Type ids index fixed tables of the world (so that systems running side by side never see one grow).
+constexpr std::uint32_t kMaxTypes = 1024;
+std::uint32_t nextTypeId();
 /// A small dense id per C++ type, used to index the world's tables.
 template <class T>
 std::uint32_t typeId() {
@@ -110,6 +109,23 @@ struct AccessBuilder<Reads<R...>, Writes<W...>> {
     }
 };
 } // namespace detail
+
+class Commands;
+
+/// The system a thread is running right now, for the world's access check and command queue: set by the
+/// schedule around each system, and handed by the worker pool to every worker that runs part of the
+/// system's work (engine/parallel.h). Empty while no system runs.
+struct RunningSystem {
+    const void* world = nullptr;       ///< the world the system runs in
+    const Access* access = nullptr;    ///< its declaration
+    const std::string* name = nullptr; ///< its name
+    Commands* commands = nullptr;      ///< its queue of structural changes (applied in table order)
+};
+inline thread_local RunningSystem t_runningSystem;
+/// This thread's running system.
+inline RunningSystem& runningSystem() {
+    return t_runningSystem;
+}
 
 /// A declaration from type lists: accessOf<Reads<A, B>, Writes<C>>().
 template <class R, class W = Writes<>>

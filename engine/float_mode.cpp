@@ -18,6 +18,12 @@ FlushDenormals::FlushDenormals() : m_saved(_mm_getcsr()) {
 FlushDenormals::~FlushDenormals() {
     _mm_setcsr(static_cast<unsigned>(m_saved));
 }
+std::uint64_t floatMode() {
+    return _mm_getcsr();
+}
+void setFloatMode(std::uint64_t mode) {
+    _mm_setcsr(static_cast<unsigned>(mode));
+}
 #elif defined(__aarch64__)
 FlushDenormals::FlushDenormals() : m_saved(__builtin_aarch64_get_fpcr64()) {
     __builtin_aarch64_set_fpcr64(m_saved | (std::uint64_t{1} << 24)); // FPCR.FZ
@@ -25,9 +31,19 @@ FlushDenormals::FlushDenormals() : m_saved(__builtin_aarch64_get_fpcr64()) {
 FlushDenormals::~FlushDenormals() {
     __builtin_aarch64_set_fpcr64(m_saved);
 }
+std::uint64_t floatMode() {
+    return __builtin_aarch64_get_fpcr64();
+}
+void setFloatMode(std::uint64_t mode) {
+    __builtin_aarch64_set_fpcr64(mode);
+}
 #else
 FlushDenormals::FlushDenormals() = default;
 FlushDenormals::~FlushDenormals() = default;
+std::uint64_t floatMode() {
+    return 0;
+}
+void setFloatMode(std::uint64_t) {}
 #endif
 
 } // namespace tumble

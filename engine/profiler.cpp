@@ -1,6 +1,7 @@
 #include "engine/profiler.h"
 
 #include "engine/json.h"
+#include "engine/parallel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -31,9 +32,15 @@ Profiler::Profiler(std::size_t ringCapacity)
     : m_origin(TimeSource::now()), m_capacity(std::max<std::size_t>(ringCapacity, 1)) {
     m_physics.samples.reserve(m_capacity);
     m_render.samples.reserve(m_capacity);
+    m_critical.samples.reserve(m_capacity);
 }
 
 int Profiler::addSlot(std::string name, Phase phase, bool isPhase) {
+    std::lock_guard lock(m_mutex);
+    return addSlotLocked(std::move(name), phase, isPhase);
+}
+
+int Profiler::addSlotLocked(std::string name, Phase phase, bool isPhase) {
     Slot s{std::move(name), phase, isPhase, {}, 0, 0, 0, {}};
     s.recent.samples.reserve(m_capacity);
     m_slots.push_back(std::move(s));
@@ -41,17 +48,19 @@ int Profiler::addSlot(std::string name, Phase phase, bool isPhase) {
 }
 
 int Profiler::stageSlot(std::string_view name, Phase phase) {
+    std::lock_guard lock(m_mutex);
     for (std::size_t i = 0; i < m_slots.size(); ++i) {
         if (!m_slots[i].isPhase && m_slots[i].name == name) {
             return static_cast<int>(i);
         }
     }
-    const int slot = addSlot(std::string(name), phase, false);
+    const int slot = addSlotLocked(std::string(name), phase, false);
     m_slots[std::size_t(slot)].stageOf = std::string(name.substr(0, name.find('.')));
     return slot;
 }
 
 int Profiler::counterSlot(std::string_view name) {
+    std::lock_guard lock(m_mutex);
     for (std::size_t i = 0; i < m_counters.size(); ++i) {
         if (m_counters[i].name == name) {
             return static_cast<int>(i);
@@ -62,6 +71,7 @@ int Profiler::counterSlot(std::string_view name) {
 }
 
 void Profiler::count(int counter, double value) noexcept {
+    std::lock_guard lock(m_mutex);
     CounterStats& c = m_counters[static_cast<std::size_t>(counter)];
     c.max = c.samples == 0 ? value : std::max(c.max, value);
     ++c.samples;
@@ -70,22 +80,26 @@ void Profiler::count(int counter, double value) noexcept {
 }
 
 void Profiler::beginFrame(std::uint64_t frame) {
+    std::lock_guard lock(m_mutex);
     m_frame = frame;
     m_frameStartNs = nowNs();
     m_framePhysicsNs = 0;
     m_frameRenderNs = 0;
+    m_frameCriticalNs = 0;
 }
 
 void Profiler::endFrame() {
+    std::lock_guard lock(m_mutex);
     const std::int64_t end = nowNs();
     ++m_frames;
     m_physics.push(static_cast<float>(static_cast<double>(m_framePhysicsNs) * 1e-6), m_capacity);
     m_render.push(static_cast<float>(static_cast<double>(m_frameRenderNs) * 1e-6), m_capacity);
+    m_critical.push(static_cast<float>(static_cast<double>(m_frameCriticalNs) * 1e-6), m_capacity);
     m_physicsMaxNs = std::max(m_physicsMaxNs, m_framePhysicsNs);
     if (m_framePhysicsNs > m_budgetNs) {
         ++m_overBudget;
     }
-    keepTraceEvent({-1, m_frame, m_frameStartNs, end - m_frameStartNs});
+    keepTraceEvent({-1, 0, m_frame, m_frameStartNs, end - m_frameStartNs});
 }
 
 std::vector<float> Profiler::Ring::last(std::size_t n) const {
@@ -100,6 +114,7 @@ std::vector<float> Profiler::Ring::last(std::size_t n) const {
 }
 
 std::vector<RecentSlot> Profiler::recentStats(std::size_t n) const {
+    std::lock_guard lock(m_mutex);
     std::vector<RecentSlot> out;
     for (const Slot& s : m_slots) {
         const std::vector<float> last = s.recent.last(n);
@@ -113,10 +128,12 @@ std::vector<RecentSlot> Profiler::recentStats(std::size_t n) const {
 }
 
 std::vector<float> Profiler::recentPhysics(std::size_t n) const {
+    std::lock_guard lock(m_mutex);
     return m_physics.last(n);
 }
 
 std::vector<float> Profiler::physicsHistory() const {
+    std::lock_guard lock(m_mutex);
     const auto& r = m_physics;
     if (r.samples.size() < m_capacity) {
         return r.samples;
@@ -141,7 +158,13 @@ void Profiler::keepTraceEvent(const TraceEvent& e) noexcept {
     }
 }
 
+void Profiler::addCriticalPath(std::int64_t ns) noexcept {
+    std::lock_guard lock(m_mutex);
+    m_frameCriticalNs += ns;
+}
+
 void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) noexcept {
+    std::lock_guard lock(m_mutex);
     Slot& s = m_slots[std::size_t(slot)];
     ++s.calls;
     s.sumNs += durationNs;
@@ -154,10 +177,11 @@ void Profiler::record(int slot, std::int64_t startNs, std::int64_t durationNs) n
             m_frameRenderNs += durationNs;
         }
     }
-    keepTraceEvent({slot, m_frame, startNs, durationNs});
+    keepTraceEvent({slot, WorkerPool::threadIndex(), m_frame, startNs, durationNs});
 }
 
 std::vector<SlotStats> Profiler::slotStats() const {
+    std::lock_guard lock(m_mutex);
     // in slot order, each system's stages right after it (stages are made on first use, after every system)
     std::vector<const Slot*> order;
     for (const Slot& s : m_slots) {
@@ -196,25 +220,38 @@ std::vector<SlotStats> Profiler::slotStats() const {
 }
 
 FrameStats Profiler::frameStats() const {
+    std::lock_guard lock(m_mutex);
     FrameStats f;
     f.frames = m_frames;
     f.physicsP50Ms = m_physics.percentile(0.50);
     f.physicsP99Ms = m_physics.percentile(0.99);
     f.physicsMaxMs = static_cast<double>(m_physicsMaxNs) * 1e-6;
+    f.criticalP50Ms = m_critical.percentile(0.50);
+    f.criticalP99Ms = m_critical.percentile(0.99);
     f.renderP50Ms = m_render.percentile(0.50);
     f.overBudgetFrames = m_overBudget;
     return f;
 }
 
 void Profiler::writeTrace(std::ostream& out) const {
+    std::lock_guard lock(m_mutex);
     std::string buf;
     JsonWriter w(buf);
     w.beginObject().key("displayTimeUnit").value("ms").key("traceEvents").beginArray();
-    // name the one process and thread so Perfetto labels the track
-    for (const auto& [what, name] :
-         {std::pair{"process_name", "tumble"}, std::pair{"thread_name", "simulation"}}) {
-        w.beginObject().key("name").value(what).key("ph").value("M").key("pid").value(1).key("tid").value(1);
+    // name the process and each thread's track so Perfetto labels them: the caller's, then the workers'
+    int tracks = 1;
+    for (const TraceEvent& e : m_events) {
+        tracks = std::max(tracks, e.track + 1);
+    }
+    auto meta = [&](const char* what, int tid, const std::string& name) {
+        w.beginObject().key("name").value(what).key("ph").value("M").key("pid").value(1).key("tid").value(
+            tid);
         w.key("args").beginObject().key("name").value(name).endObject().endObject();
+    };
+    meta("process_name", 1, "tumble");
+    meta("thread_name", 1, "simulation");
+    for (int t = 1; t < tracks; ++t) {
+        meta("thread_name", t + 1, "worker " + std::to_string(t));
     }
     for (const TraceEvent& e : m_events) {
         w.beginObject();
@@ -226,7 +263,8 @@ void Profiler::writeTrace(std::ostream& out) const {
         }
         // trace timestamps are microseconds
         w.key("ph").value("X").key("ts").value(static_cast<double>(e.startNs) * 1e-3);
-        w.key("dur").value(static_cast<double>(e.durationNs) * 1e-3).key("pid").value(1).key("tid").value(1);
+        w.key("dur").value(static_cast<double>(e.durationNs) * 1e-3).key("pid").value(1);
+        w.key("tid").value(e.track + 1);
         w.key("args").beginObject().key("frame").value(e.frame).endObject();
         w.endObject();
         if (buf.size() > (1u << 16)) {

@@ -28,8 +28,9 @@ void applyEvents(World& world, const StepContext& ctx, const Catalog& catalog) {
 } // namespace
 
 Simulation::Simulation(const Catalog& catalog, const std::string& path, std::string text,
-                       const std::vector<std::string>& overrides, std::uint64_t memoryCap)
-    : m_catalog(catalog), m_schedule(m_profiler),
+                       const std::vector<std::string>& overrides, std::uint64_t memoryCap, int threads)
+    : m_catalog(catalog), m_pool(std::make_unique<WorkerPool>(threads > 0 ? threads : defaultThreadCount())),
+      m_schedule(m_profiler),
       m_scenario(loadScenario(catalog, path, std::move(text), overrides, m_world, memoryCap)),
       m_loop(secondsToNs(m_scenario.scene.dt), m_scenario.scene.substeps) {
     m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
@@ -76,6 +77,14 @@ void Simulation::beginFrame() {
     m_ctx.seed = scene.seed;
     m_ctx.frame = m_frame;
     m_ctx.profiler = &m_profiler;
+    m_ctx.pool = m_pool.get();
+}
+
+void Simulation::setThreads(int threads) {
+    if (threads != m_pool->threads()) {
+        m_pool = std::make_unique<WorkerPool>(threads);
+        m_ctx.pool = m_pool.get();
+    }
 }
 
 void Simulation::runStep() {
@@ -132,12 +141,13 @@ double roundMs(double ms) {
 }
 } // namespace
 
-std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames) {
+std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames,
+                              int threads) {
     std::string out;
     JsonWriter w(out);
     const FrameStats f = profiler.frameStats();
     w.beginObject().key("scene").value(scene.name).key("frames").value(frames).key("dt").value(scene.dt);
-    w.key("substeps").value(scene.substeps);
+    w.key("substeps").value(scene.substeps).key("threads").value(threads);
     w.key("budget").beginObject().key("physics_ms").value(scene.physicsBudgetMs);
     w.key("frame_ms").value(roundMs(scene.frameSeconds() * 1000.0)).endObject();
     const std::vector<SlotStats> stats = profiler.slotStats();
@@ -165,6 +175,8 @@ std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, s
         .value(roundMs(f.physicsP99Ms))
         .key("physics_max_ms")
         .value(roundMs(f.physicsMaxMs));
+    w.key("critical_path_p50_ms").value(roundMs(f.criticalP50Ms));
+    w.key("critical_path_p99_ms").value(roundMs(f.criticalP99Ms));
     w.key("render_p50_ms").value(roundMs(f.renderP50Ms)).key("over_budget_frames").value(f.overBudgetFrames);
     w.endObject();
     // what systems count of their work, a report a step (the crossed pairs cloth contact untangles, say)

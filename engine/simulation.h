@@ -7,6 +7,7 @@
 
 #include "engine/catalog.h"
 #include "engine/fixed_loop.h"
+#include "engine/parallel.h"
 #include "engine/profiler.h"
 #include "engine/scenario.h"
 #include "engine/schedule.h"
@@ -29,9 +30,16 @@ struct EventQueue {
 /// One scenario running in one world; see the header comment.
 class Simulation {
 public:
-    /// Loads the scenario (throws ScenarioError), under a memory cap in bytes, and builds the schedule.
+    /// Loads the scenario (throws ScenarioError), under a memory cap in bytes, and builds the schedule; the
+    /// steps run on `threads` threads (0: defaultThreadCount(), which throws std::invalid_argument on a bad
+    /// TUMBLE_THREADS).
     Simulation(const Catalog& catalog, const std::string& path, std::string text,
-               const std::vector<std::string>& overrides, std::uint64_t memoryCap = kDefaultMemoryCap);
+               const std::vector<std::string>& overrides, std::uint64_t memoryCap = kDefaultMemoryCap,
+               int threads = 0);
+
+    /// Threads the steps use (engine/parallel.h): any number gives the same bits.
+    void setThreads(int threads);
+    int threads() const { return m_pool->threads(); }
 
     /// Advance one frame: exactly `substeps` fixed steps (headless, deterministic).
     void runFrame();
@@ -71,6 +79,7 @@ public:
 
 private:
     const Catalog& m_catalog;
+    std::unique_ptr<WorkerPool> m_pool;
     World m_world;
     Profiler m_profiler;
     Schedule m_schedule;
@@ -85,6 +94,7 @@ private:
 };
 
 /// The budget summary (README, "Budgets"), as JSON.
-std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames);
+std::string budgetSummaryJson(const Profiler& profiler, const SceneDef& scene, std::uint64_t frames,
+                              int threads);
 
 } // namespace tumble

@@ -7,6 +7,7 @@
 namespace tumble {
 
 class Profiler;
+class WorkerPool;
 
 /// Context for one run of a phase.
 struct StepContext {
@@ -18,6 +19,7 @@ struct StepContext {
     double alpha =
         1.0; ///< frame phase: where the frame falls between the last two fixed steps (1: at the last)
     Profiler* profiler = nullptr; ///< for a system that times its own stages (profileSlot); null when untimed
+    WorkerPool* pool = nullptr;   ///< for a system's chunked loops (engine/parallel.h); null: one thread
 };
 
 } // namespace tumble

@@ -5,7 +5,7 @@
 namespace tumble {
 
 Entity Commands::spawn() {
-    return m_world.create();
+    return m_world->create();
 }
 
 void Commands::destroy(Entity e) {
@@ -23,7 +23,7 @@ void Commands::flush() {
         std::vector<std::function<void(World&)>> batch;
         batch.swap(m_queue);
         for (auto& change : batch) {
-            change(m_world);
+            change(*m_world);
         }
     }
 }
@@ -51,10 +51,8 @@ Entity World::create() {
 void World::destroy(Entity e) {
     requireAlive(e, "destroy");
     requireUnlocked("destroy");
-    for (auto& p : m_pools) {
-        if (p) {
-            p->erase(e.index);
-        }
+    for (auto& p : m_ownedPools) {
+        p->erase(e.index);
     }
     m_alive[e.index] = 0;
     --m_living;
@@ -86,7 +84,7 @@ void World::requireAlive(Entity e, const char* what) const {
 }
 
 void World::requireUnlocked(const char* what) const {
-    if (m_iterating > 0) {
+    if (m_iterating.load(std::memory_order_relaxed) > 0) {
         throw WorldLockedError(std::string("world: ") + what +
                                " while a view is iterating; queue it with world.commands()");
     }
@@ -99,8 +97,19 @@ void World::failGet(Entity e) const {
     throw StaleEntityError("world: entity " + std::to_string(e.index) + " has no component of that type");
 }
 
+PoolBase* World::makePool(std::uint32_t id, std::unique_ptr<PoolBase> (*make)()) {
+    // two systems reading a type side by side may both find its set missing: one makes it
+    std::lock_guard lock(m_poolMutex);
+    if (PoolBase* made = m_pools[id].load(std::memory_order_acquire)) {
+        return made;
+    }
+    m_ownedPools.push_back(make());
+    m_pools[id].store(m_ownedPools.back().get(), std::memory_order_release);
+    return m_ownedPools.back().get();
+}
+
 void World::failAccess(const std::string& type, bool write) const {
-    throw AccessError("system '" + *m_system + "' " + (write ? "writes " : "reads ") + type +
+    throw AccessError("system '" + *runningSystem().name + "' " + (write ? "writes " : "reads ") + type +
                       " without declaring it; add it to the system's " + (write ? "Writes" : "Reads") +
                       " in systems/builtin.cpp");
 }

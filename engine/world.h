@@ -12,15 +12,24 @@
 // - While a system runs, the world holds what the system declared it reads and writes (engine/access.h) and
 //   refuses views, gets and resources over anything else.
 // - While a view iterates, the component sets must not change shape. Structural changes made inside a
-//   phase go through commands(): they are queued and applied, in the order they were made, when the
-//   schedule flushes at the end of the phase. Changing a set during iteration directly is an error.
+//   phase go through commands(): each system has its own queue, and the schedule applies the queues in
+//   the order of the table of systems when the phase ends (each in the order its changes were made), so
+//   systems that ran side by side change the world as if they had run one after another. Changing a set
+//   during iteration directly is an error.
+// - Systems that do not conflict run side by side (engine/schedule.h). The world's tables of component
+//   sets and resources have a fixed size (detail::kMaxTypes), so a set made on first use never moves
+//   another; the running system is kept per thread. Making and destroying entities is not for systems
+//   running side by side: it goes through commands().
 
 #include "engine/access.h"
 #include "engine/entity.h"
 
+#include <array>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -115,7 +124,7 @@ class World;
 /// Structural changes queued during a phase and applied in order when the phase ends.
 class Commands {
 public:
-    explicit Commands(World& world) : m_world(world) {}
+    explicit Commands(World& world) : m_world(&world) {}
 
     /// A new entity, alive at once (its handle can be used in further commands); components come later.
     Entity spawn();
@@ -133,7 +142,7 @@ public:
     void flush();
 
 private:
-    World& m_world;
+    World* m_world;
     std::vector<std::function<void(World&)>> m_queue;
 };
 
@@ -222,26 +231,22 @@ public:
     template <class T>
     Pool<T>& pool() {
         const auto id = detail::typeId<T>();
-        if (id >= m_pools.size()) {
-            m_pools.resize(std::size_t(id) + 1);
+        PoolBase* p = m_pools[id].load(std::memory_order_acquire);
+        if (!p) {
+            p = makePool(id, [] { return std::unique_ptr<PoolBase>(new Pool<T>()); });
         }
-        if (!m_pools[id]) {
-            m_pools[id] = std::make_unique<Pool<T>>();
-        }
-        return static_cast<Pool<T>&>(*m_pools[id]);
+        return static_cast<Pool<T>&>(*p);
     }
     /// The packed set of a component type, or nullptr if none was ever made.
     template <class T>
     const Pool<T>* findPool() const {
         checkAccess<T>(false);
-        const auto id = detail::typeId<T>();
-        return id < m_pools.size() ? static_cast<const Pool<T>*>(m_pools[id].get()) : nullptr;
+        return static_cast<const Pool<T>*>(m_pools[detail::typeId<T>()].load(std::memory_order_acquire));
     }
     template <class T>
     Pool<T>* findPool() {
         checkAccess<T>(false);
-        const auto id = detail::typeId<T>();
-        return id < m_pools.size() ? static_cast<Pool<T>*>(m_pools[id].get()) : nullptr;
+        return static_cast<Pool<T>*>(m_pools[detail::typeId<T>()].load(std::memory_order_acquire));
     }
 
     /// Entities having every one of Ts; const types are read-only.
@@ -255,9 +260,6 @@ public:
     T& setResource(Args&&... args) {
         checkAccess<T>(true);
         const auto id = detail::typeId<T>();
-        if (id >= m_resources.size()) {
-            m_resources.resize(std::size_t(id) + 1);
-        }
         auto holder = std::make_shared<T>(std::forward<Args>(args)...);
         T& ref = *holder;
         m_resources[id] = std::move(holder);
@@ -267,8 +269,7 @@ public:
     template <class T>
     T* tryResource() {
         checkAccess<T>(false);
-        const auto id = detail::typeId<T>();
-        return id < m_resources.size() ? static_cast<T*>(m_resources[id].get()) : nullptr;
+        return static_cast<T*>(m_resources[detail::typeId<T>()].get());
     }
     /// The resource; throws std::logic_error if it was never set.
     template <class T>
@@ -282,37 +283,43 @@ public:
 
     // ---- declared access
 
-    /// Holds a running system's name and declaration (both outlive the scope); see the header comment.
+    /// Makes this thread run a system in this world: its name, declaration and command queue (all outlive
+    /// the scope); see the header comment. The thread's previous running system comes back after.
     struct AccessScope {
-        AccessScope(World& w, const std::string& system, const Access& access) : world(w) {
-            world.m_system = &system;
-            world.m_access = &access;
+        AccessScope(World& w, const std::string& system, const Access& access, Commands* queue = nullptr)
+            : saved(runningSystem()) {
+            runningSystem() = RunningSystem{&w, &access, &system, queue};
         }
-        ~AccessScope() {
-            world.m_access = nullptr;
-            world.m_system = nullptr;
-        }
+        ~AccessScope() { runningSystem() = saved; }
         AccessScope(const AccessScope&) = delete;
         AccessScope& operator=(const AccessScope&) = delete;
-        World& world;
+        RunningSystem saved;
     };
-    /// Throws AccessError if a system is running and did not declare T (written, when write is true).
+    /// Throws AccessError if this thread runs a system in this world that did not declare T (written,
+    /// when write is true).
     template <class T>
     void checkAccess(bool write) const {
-        if (m_access && !m_access->allows(detail::typeId<T>(), write)) {
+        const RunningSystem& running = runningSystem();
+        if (running.world == this && running.access && !running.access->allows(detail::typeId<T>(), write)) {
             failAccess(detail::typeName<T>(), write);
         }
     }
 
     // ---- deferred changes
 
-    /// The queue for structural changes made during a phase (see the header comment).
-    Commands& commands() { return m_commands; }
+    /// The queue for structural changes: the running system's own, else the world's (see the header
+    /// comment).
+    Commands& commands() {
+        const RunningSystem& running = runningSystem();
+        return running.world == this && running.commands ? *running.commands : m_commands;
+    }
 
     /// Held by a view while it iterates; structural changes are refused while any is held.
     struct IterationLock {
-        explicit IterationLock(World& w) : world(w) { ++world.m_iterating; }
-        ~IterationLock() { --world.m_iterating; }
+        explicit IterationLock(World& w) : world(w) {
+            world.m_iterating.fetch_add(1, std::memory_order_relaxed);
+        }
+        ~IterationLock() { world.m_iterating.fetch_sub(1, std::memory_order_relaxed); }
         IterationLock(const IterationLock&) = delete;
         IterationLock& operator=(const IterationLock&) = delete;
         World& world;
@@ -323,17 +330,18 @@ private:
     void requireUnlocked(const char* what) const;
     [[noreturn]] void failGet(Entity e) const;
     [[noreturn]] void failAccess(const std::string& type, bool write) const;
+    PoolBase* makePool(std::uint32_t id, std::unique_ptr<PoolBase> (*make)());
 
     std::vector<std::uint32_t> m_generations; ///< current generation of each slot
     std::vector<std::uint8_t> m_alive;        ///< 1 while the slot holds a living entity
     std::vector<std::uint32_t> m_free;        ///< slots to reuse, most recently freed last
     std::size_t m_living = 0;
-    int m_iterating = 0;                            ///< views iterating right now
-    std::vector<std::unique_ptr<PoolBase>> m_pools; ///< by detail::typeId
-    std::vector<std::shared_ptr<void>> m_resources; ///< by detail::typeId
+    std::atomic<int> m_iterating{0};                                  ///< views iterating right now
+    std::array<std::atomic<PoolBase*>, detail::kMaxTypes> m_pools{};  ///< by detail::typeId
+    std::vector<std::unique_ptr<PoolBase>> m_ownedPools;              ///< the same, owned, in order made
+    std::mutex m_poolMutex;                                           ///< for making a set on first use
+    std::array<std::shared_ptr<void>, detail::kMaxTypes> m_resources; ///< by detail::typeId
     Commands m_commands;
-    const Access* m_access = nullptr;      ///< the running system's declaration, if a system runs
-    const std::string* m_system = nullptr; ///< its name
 };
 
 template <class T>

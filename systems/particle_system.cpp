@@ -2,6 +2,7 @@
 
 #include "components/force_field.h"
 #include "engine/name.h"
+#include "engine/parallel.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
 #include "systems/field_forces.h"
@@ -17,6 +18,10 @@ namespace tumble {
 namespace {
 
 constexpr double kHuge = 1e9;
+/// Particles per chunk of the parallel update: a multiple of four (a chunk's groups of four are whole), and
+/// enough work (about 30 us) to dwarf handing the chunk to a thread.
+constexpr std::uint32_t kParticleGrain = 1u << 14;
+
 constexpr std::int64_t kMaxParticles = 5'000'000;        // 160 MB of state at most per emitter
 constexpr std::uint64_t kMaxSceneParticles = 10'000'000; // and 320 MB for the whole scene
 
@@ -168,8 +173,8 @@ double ctxDt(World& w) {
 }
 
 /// Velocity changes from the force fields, per particle (a 1 kg body).
-void applyFields(ParticlePool& p, const std::vector<ForceField>& fields, float dt) {
-    for (std::uint32_t i = 0; i < p.count; ++i) {
+void applyFields(ParticlePool& p, const std::vector<ForceField>& fields, float dt, WorkerPool& pool) {
+    pool.forEach(p.count, 4096, [&](std::size_t i) {
         const Vec3 x{p.px[i], p.py[i], p.pz[i]};
         const Vec3 v{p.vx[i], p.vy[i], p.vz[i]};
         Vec3 a;
@@ -179,7 +184,7 @@ void applyFields(ParticlePool& p, const std::vector<ForceField>& fields, float d
         p.vx[i] += float(a.x * dt);
         p.vy[i] += float(a.y * dt);
         p.vz[i] += float(a.z * dt);
-    }
+    });
 }
 
 } // namespace
@@ -188,7 +193,8 @@ void reserveParticles(ParticlePool& p, std::uint32_t capacity) {
     for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
         a->assign(capacity, 0.0f);
     }
-    p.deadGroups.reserve(capacity / 4 + 1);
+    p.deadGroups.assign(capacity / 4 + 1, 0);
+    p.deadCounts.assign(std::max<std::size_t>(1, WorkerPool::chunkCount(capacity, kParticleGrain)), 0);
 }
 
 void spawnParticles(ParticleEmitter& e, std::uint64_t n) {
@@ -252,17 +258,21 @@ void spawnParticles(ParticleEmitter& e, std::uint64_t n) {
     }
 }
 
-std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag, float dt) {
-    // v' = v e^(-drag dt) + g dt, x' = x + v' dt, age' = age + dt; four particles per register. The drag
-    // factor is the exact decay over the step, so any drag is stable (1 - drag dt would not be past 2/dt)
-    const float keepScalar = std::exp(-drag * dt);
+namespace {
+
+/// The update of one chunk's particles: v' = v e^(-drag dt) + g dt, x' = x + v' dt, age' = age + dt; four
+/// particles per register. The drag factor is the exact decay over the step, so any drag is stable (1 -
+/// drag dt would not be past 2/dt). Lists the first index of each group of four with a death in `dead`
+/// (the group of the last few, past a multiple of four, too) and returns how many it listed.
+std::uint32_t advanceChunk(ParticlePool& p, std::uint32_t begin, std::uint32_t end, const Vec3& gravity,
+                           float keepScalar, float dt, std::uint32_t* dead) {
     const __m128 keep = _mm_set1_ps(keepScalar);
     const __m128 gx = _mm_set1_ps(float(gravity.x) * dt), gy = _mm_set1_ps(float(gravity.y) * dt),
                  gz = _mm_set1_ps(float(gravity.z) * dt);
     const __m128 step = _mm_set1_ps(dt);
-    p.deadGroups.clear();
-    const std::uint32_t whole = p.count & ~3u;
-    for (std::uint32_t i = 0; i < whole; i += 4) {
+    std::uint32_t listed = 0;
+    const std::uint32_t whole = begin + ((end - begin) & ~3u);
+    for (std::uint32_t i = begin; i < whole; i += 4) {
         const __m128 vx = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vx[i]), keep), gx);
         const __m128 vy = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vy[i]), keep), gy);
         const __m128 vz = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vz[i]), keep), gz);
@@ -275,12 +285,12 @@ std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag,
         const __m128 age = _mm_add_ps(_mm_loadu_ps(&p.age[i]), step);
         _mm_storeu_ps(&p.age[i], age);
         if (_mm_movemask_ps(_mm_cmpge_ps(age, _mm_loadu_ps(&p.lifetime[i]))) != 0) {
-            p.deadGroups.push_back(i);
+            dead[listed++] = i;
         }
     }
-    // the last few, one at a time, with exactly the same arithmetic
+    // the last few (only in the last chunk), one at a time, with exactly the same arithmetic
     bool tailDeath = false;
-    for (std::uint32_t i = whole; i < p.count; ++i) {
+    for (std::uint32_t i = whole; i < end; ++i) {
         p.vx[i] = p.vx[i] * keepScalar + float(gravity.x) * dt;
         p.vy[i] = p.vy[i] * keepScalar + float(gravity.y) * dt;
         p.vz[i] = p.vz[i] * keepScalar + float(gravity.z) * dt;
@@ -291,21 +301,39 @@ std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag,
         tailDeath = tailDeath || p.age[i] >= p.lifetime[i];
     }
     if (tailDeath) {
-        p.deadGroups.push_back(whole);
+        dead[listed++] = whole;
     }
-    // swap-remove the dead, highest index first: whatever moves in from the end has been checked already
+    return listed;
+}
+
+} // namespace
+
+std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag, float dt, WorkerPool& pool) {
+    const float keep = std::exp(-drag * dt);
+    // every chunk lists its groups with a death in its own stretch of deadGroups (a group's slot is its
+    // first index / 4), so no chunk waits on another
+    pool.forChunks(p.count, kParticleGrain, [&](std::size_t c, std::size_t b, std::size_t e) {
+        p.deadCounts[c] =
+            advanceChunk(p, std::uint32_t(b), std::uint32_t(e), gravity, keep, dt, &p.deadGroups[b / 4]);
+    });
+    // swap-remove the dead, highest index first (chunks last to first, each's groups last to first):
+    // whatever moves in from the end has been checked already. The same order at any thread count.
     std::uint32_t deaths = 0;
-    for (std::size_t g = p.deadGroups.size(); g-- > 0;) {
-        const std::uint32_t first = p.deadGroups[g];
-        for (std::uint32_t i = std::min(first + 4, p.count); i-- > first;) {
-            if (p.age[i] < p.lifetime[i]) {
-                continue;
+    for (std::size_t c = WorkerPool::chunkCount(p.count, kParticleGrain); c-- > 0;) {
+        const std::uint32_t* dead = &p.deadGroups[c * (kParticleGrain / 4)];
+        for (std::uint32_t g = p.deadCounts[c]; g-- > 0;) {
+            const std::uint32_t first = dead[g];
+            for (std::uint32_t i = std::min(first + 4, p.count); i-- > first;) {
+                if (p.age[i] < p.lifetime[i]) {
+                    continue;
+                }
+                const std::uint32_t last = --p.count;
+                for (std::vector<float>* a :
+                     {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+                    (*a)[i] = (*a)[last];
+                }
+                ++deaths;
             }
-            const std::uint32_t last = --p.count;
-            for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
-                (*a)[i] = (*a)[last];
-            }
-            ++deaths;
         }
     }
     return deaths;
@@ -332,11 +360,12 @@ void updateParticles(World& world, const StepContext& ctx) {
     const Vec3 gravity{g[0], g[1], g[2]};
     const Pool<ForceField>* fields = world.findPool<ForceField>();
     const float dt = static_cast<float>(ctx.dt);
+    WorkerPool& pool = poolOr(ctx.pool);
     world.view<ParticleEmitter>().each([&](Entity, ParticleEmitter& e) {
         if (fields && fields->size() > 0) {
-            applyFields(e.pool, fields->values(), dt);
+            applyFields(e.pool, fields->values(), dt, pool);
         }
-        advanceParticles(e.pool, gravity, static_cast<float>(e.def.drag), dt);
+        advanceParticles(e.pool, gravity, static_cast<float>(e.def.drag), dt, pool);
     });
 }
 

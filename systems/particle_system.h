@@ -23,6 +23,7 @@
 
 #include "components/particles.h"
 #include "engine/catalog.h"
+#include "engine/parallel.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
 
@@ -41,8 +42,10 @@ void spawnParticles(ParticleEmitter& emitter, std::uint64_t n);
 void reserveParticles(ParticlePool& pool, std::uint32_t capacity);
 
 /// Ages the pool by dt, removes the particles whose lifetime is over, and advances the survivors under
-/// gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel.
-std::uint32_t advanceParticles(ParticlePool& pool, const Vec3& gravity, float drag, float dt);
+/// gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel, in chunks
+/// shared by the pool's threads: the same bits at any thread count (removal runs in index order after).
+std::uint32_t advanceParticles(ParticlePool& pool, const Vec3& gravity, float drag, float dt,
+                               WorkerPool& threads = serialPool());
 
 /// Registers the `emitter` component, its dump, hash and events.
 void registerParticleSystem(Catalog& catalog);

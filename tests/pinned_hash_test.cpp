@@ -1,5 +1,8 @@
 // Every demo's state hashes over its first frames, pinned (as Box2D pins EXPECTED_HASH): any change of
-// simulated bits fails here, so that it is made on purpose. When a change of bits is intended, run
+// simulated bits fails here, so that it is made on purpose. Each demo, and a scene holding every kind of
+// component (tests/data/every_kind.toml), runs at 1, 2, 3, 4, 7 and 16 threads, and every thread count
+// must give the one pinned hash (as Box2D's determinism test does for 1 to 32 workers): the same bits
+// on any machine's cores. When a change of bits is intended, run
 //   TUMBLE_PRINT_PINNED=1 build/tests/tumble_tests --gtest_filter='*PinnedHash*'
 // and paste the table it prints, saying in the commit why the bits changed.
 //
@@ -34,13 +37,23 @@ const std::map<std::string, std::uint64_t>& pinned() {
         {"rope", 0x88334b26b042cf35ull},         {"smoke", 0x04fbcff26eda3ce0ull},
         {"stress_cloth", 0xb7a065a65c8a52a6ull}, {"tablecloth", 0xac58651905f30db5ull},
         {"twist", 0xd3940a7b0ee725e1ull},        {"wake", 0xf1f8294f422b4b29ull},
+        {"every_kind", 0x252927407dd0a5bfull},
     };
     return table;
 }
 
-std::uint64_t framesHash(const std::string& demo) {
-    auto sim =
-        test::makeSimulation(test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/" + demo + ".toml"));
+/// The thread counts every scene runs at.
+constexpr int kThreadCounts[] = {1, 2, 3, 4, 7, 16};
+
+std::string scenePath(const std::string& scene) {
+    const std::string source = TUMBLE_SOURCE_DIR;
+    return scene == "every_kind" ? source + "/tests/data/every_kind.toml"
+                                 : source + "/demos/" + scene + ".toml";
+}
+
+std::uint64_t framesHash(const std::string& scene, int threads) {
+    auto sim = test::makeSimulation(test::readFile(scenePath(scene)));
+    sim->setThreads(threads);
     const int frames = sim->scene().stress ? kStressFrames : kFrames;
     std::uint64_t h = 1469598103934665603ull;
     for (int f = 0; f < frames; ++f) {
@@ -53,23 +66,35 @@ std::uint64_t framesHash(const std::string& demo) {
     return h;
 }
 
-class PinnedHash : public ::testing::TestWithParam<std::string> {};
+class PinnedHash : public ::testing::TestWithParam<std::tuple<std::string, int>> {};
 
-TEST_P(PinnedHash, FirstFramesHaveThePinnedBits) {
-    const std::uint64_t h = framesHash(GetParam());
-    if (std::getenv("TUMBLE_PRINT_PINNED")) {
-        std::printf("        {\"%s\", 0x%016llxull},\n", GetParam().c_str(),
-                    static_cast<unsigned long long>(h));
+TEST_P(PinnedHash, FirstFramesHaveThePinnedBitsAtAnyThreadCount) {
+    const auto& [scene, threads] = GetParam();
+    const std::uint64_t h = framesHash(scene, threads);
+    if (std::getenv("TUMBLE_PRINT_PINNED") && threads == 1) {
+        std::printf("        {\"%s\", 0x%016llxull},\n", scene.c_str(), static_cast<unsigned long long>(h));
     }
-    const auto it = pinned().find(GetParam());
-    ASSERT_NE(it, pinned().end()) << "no pinned hash for demo " << GetParam()
+    const auto it = pinned().find(scene);
+    ASSERT_NE(it, pinned().end()) << "no pinned hash for " << scene
                                   << ": add the line printed with TUMBLE_PRINT_PINNED=1";
-    EXPECT_EQ(h, it->second) << "the simulated bits of " << GetParam()
-                             << " changed; if on purpose, re-pin (see the top of this file)";
+    EXPECT_EQ(h, it->second) << "the simulated bits of " << scene << " at " << threads
+                             << " threads differ from the pinned ones: "
+                             << (threads == 1 ? "if on purpose, re-pin (see the top of this file)"
+                                              : "a thread count must never change a bit");
 }
 
-INSTANTIATE_TEST_SUITE_P(Demos, PinnedHash, ::testing::ValuesIn(test::demoNames()),
-                         [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
+std::vector<std::string> scenes() {
+    std::vector<std::string> out = test::demoNames();
+    out.push_back("every_kind");
+    return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, PinnedHash,
+                         ::testing::Combine(::testing::ValuesIn(scenes()),
+                                            ::testing::ValuesIn(kThreadCounts)),
+                         [](const ::testing::TestParamInfo<PinnedHash::ParamType>& p) {
+                             return std::get<0>(p.param) + "_threads" + std::to_string(std::get<1>(p.param));
+                         });
 
 } // namespace
 } // namespace tumble

@@ -1,0 +1,313 @@
+#include "engine/parallel.h"
+
+#include "engine/access.h"
+#include "engine/float_mode.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <limits>
+#include <stdexcept>
+
+#if defined(__x86_64__) || defined(_M_X64)
+#include <immintrin.h>
+#endif
+
+namespace tumble {
+
+namespace {
+
+thread_local int t_threadIndex = 0;
+
+/// How long an idle worker (or a waiting caller) spins before it sleeps (or yields): long enough to span
+/// the gap between two fork-joins of one conjugate-gradient solve, short enough not to burn a core
+/// between frames.
+constexpr std::chrono::microseconds kSpin{50};
+
+void relax() {
+#if defined(__x86_64__) || defined(_M_X64)
+    _mm_pause();
+#else
+    std::this_thread::yield();
+#endif
+}
+
+/// Waits until done() holds: spins for kSpin, then yields the core at every poll (so that an
+/// oversubscribed machine, 16 threads on 2 cores, lets the threads with work run).
+template <class Done>
+void waitUntil(Done done) {
+    const auto start = std::chrono::steady_clock::now();
+    for (unsigned k = 0; !done(); ++k) {
+        if (k < 64 || std::chrono::steady_clock::now() - start < kSpin) {
+            relax();
+        } else {
+            std::this_thread::yield();
+        }
+    }
+}
+
+} // namespace
+
+int parseThreadCount(const std::string& text) {
+    if (text.empty() || text.size() > 4 || text.find_first_not_of("0123456789") != std::string::npos) {
+        return -1;
+    }
+    const int n = std::stoi(text);
+    return n >= 1 && n <= kMaxThreads ? n : -1;
+}
+
+int defaultThreadCount() {
+    if (const char* env = std::getenv("TUMBLE_THREADS"); env && *env) {
+        const int n = parseThreadCount(env);
+        if (n < 0) {
+            throw std::invalid_argument("TUMBLE_THREADS='" + std::string(env) +
+                                        "' is not a thread count: give a whole number from 1 to " +
+                                        std::to_string(kMaxThreads));
+        }
+        return n;
+    }
+    const unsigned hw = std::thread::hardware_concurrency();
+    return std::clamp(static_cast<int>(hw), 1, kMaxThreads);
+}
+
+/// One fork-join: a loop's chunks, claimed one at a time by whoever runs them.
+struct WorkerPool::Job {
+    std::size_t n = 0, grain = 0, chunks = 0;
+    void* fn = nullptr;
+    ChunkFn call = nullptr;
+    bool helpable = true;                 ///< false for the schedule's tasks, which wait on each other
+    std::atomic<std::size_t> next{0};     ///< the next chunk to claim
+    std::atomic<std::size_t> finished{0}; ///< chunks done
+    std::atomic<int> visitors{0};         ///< workers inside runChunks of this job
+    std::uint64_t floatMode = 0;          ///< the caller's
+    RunningSystem running;                ///< the caller's
+    std::mutex errorMutex;
+    std::exception_ptr error;
+    std::size_t errorChunk = std::numeric_limits<std::size_t>::max();
+};
+
+WorkerPool::WorkerPool(int threads) {
+    const int workers = std::clamp(threads, 1, kMaxThreads) - 1;
+    m_workers.reserve(std::size_t(workers));
+    for (int i = 1; i <= workers; ++i) {
+        m_workers.emplace_back([this, i] { workerMain(i); });
+    }
+}
+
+WorkerPool::~WorkerPool() {
+    {
+        std::lock_guard lock(m_mutex);
+        m_stop = true;
+        m_epoch.fetch_add(1, std::memory_order_release);
+    }
+    m_wake.notify_all();
+    for (std::thread& t : m_workers) {
+        t.join();
+    }
+}
+
+WorkerPool& serialPool() {
+    static WorkerPool pool(1);
+    return pool;
+}
+
+int WorkerPool::threadIndex() {
+    return t_threadIndex;
+}
+
+void WorkerPool::runChunks(Job& job) {
+    // take the caller's floating-point mode and running system for as long as this thread works for it
+    const std::uint64_t ownMode = floatMode();
+    if (ownMode != job.floatMode) {
+        setFloatMode(job.floatMode);
+    }
+    RunningSystem& running = runningSystem();
+    const RunningSystem ownRunning = running;
+    running = job.running;
+    for (;;) {
+        const std::size_t c = job.next.fetch_add(1, std::memory_order_relaxed);
+        if (c >= job.chunks) {
+            break;
+        }
+        try {
+            job.call(job.fn, c, c * job.grain, std::min(job.n, (c + 1) * job.grain));
+        } catch (...) {
+            std::lock_guard lock(job.errorMutex);
+            if (c < job.errorChunk) {
+                job.errorChunk = c;
+                job.error = std::current_exception();
+            }
+        }
+        job.finished.fetch_add(1, std::memory_order_acq_rel);
+    }
+    running = ownRunning;
+    if (ownMode != job.floatMode) {
+        setFloatMode(ownMode);
+    }
+}
+
+void WorkerPool::post(Job& job) {
+    job.floatMode = floatMode();
+    job.running = runningSystem();
+    std::lock_guard lock(m_mutex);
+    m_jobs.push_back(&job);
+    m_epoch.fetch_add(1, std::memory_order_release);
+    if (m_parked > 0) {
+        m_wake.notify_all();
+    }
+}
+
+void WorkerPool::retire(Job& job) {
+    {
+        std::lock_guard lock(m_mutex);
+        m_jobs.erase(std::find(m_jobs.begin(), m_jobs.end(), &job));
+    }
+    // a worker that found the job before it left the list may still be about to see it exhausted
+    waitUntil([&] { return job.visitors.load(std::memory_order_acquire) == 0; });
+    if (job.error) {
+        std::rethrow_exception(job.error);
+    }
+}
+
+void WorkerPool::run(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call) {
+    Job job;
+    job.n = n;
+    job.grain = grain;
+    job.chunks = chunks;
+    job.fn = fn;
+    job.call = call;
+    post(job);
+    runChunks(job);
+    waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
+    retire(job);
+}
+
+bool WorkerPool::runSomeChunk(bool helpableOnly) {
+    Job* picked = nullptr;
+    {
+        std::lock_guard lock(m_mutex);
+        // the newest first: nested loops of running tasks finish them sooner
+        for (auto it = m_jobs.rbegin(); it != m_jobs.rend(); ++it) {
+            Job* j = *it;
+            if ((!helpableOnly || j->helpable) && j->next.load(std::memory_order_relaxed) < j->chunks) {
+                picked = j;
+                picked->visitors.fetch_add(1, std::memory_order_relaxed);
+                break;
+            }
+        }
+    }
+    if (!picked) {
+        return false;
+    }
+    runChunks(*picked);
+    picked->visitors.fetch_sub(1, std::memory_order_release);
+    return true;
+}
+
+void WorkerPool::workerMain(int index) {
+    t_threadIndex = index;
+    for (;;) {
+        const std::uint64_t seen = m_epoch.load(std::memory_order_acquire);
+        if (runSomeChunk(false)) {
+            continue;
+        }
+        // nothing to do: spin a moment for the next loop, then sleep until one is posted
+        const auto start = std::chrono::steady_clock::now();
+        bool posted = false;
+        for (unsigned k = 0;; ++k) {
+            if (m_epoch.load(std::memory_order_acquire) != seen) {
+                posted = true;
+                break;
+            }
+            relax();
+            if ((k & 15) == 15 && std::chrono::steady_clock::now() - start > kSpin) {
+                break;
+            }
+        }
+        std::unique_lock lock(m_mutex);
+        if (m_stop) {
+            return;
+        }
+        if (!posted) {
+            ++m_parked;
+            m_wake.wait(lock, [&] { return m_stop || m_epoch.load(std::memory_order_acquire) != seen; });
+            --m_parked;
+            if (m_stop) {
+                return;
+            }
+        }
+    }
+}
+
+void WorkerPool::signal() {
+    std::lock_guard lock(m_mutex);
+    m_epoch.fetch_add(1, std::memory_order_release);
+    if (m_parked > 0) {
+        m_wake.notify_all();
+    }
+}
+
+void WorkerPool::awaitReady(const std::function<bool()>& ready) {
+    // while a task waits for those it depends on, it helps with their loops; after a moment it sleeps
+    // until a task ends or a loop is posted
+    auto start = std::chrono::steady_clock::now();
+    for (unsigned k = 0; !ready(); ++k) {
+        const std::uint64_t seen = m_epoch.load(std::memory_order_acquire);
+        if (runSomeChunk(true)) {
+            start = std::chrono::steady_clock::now();
+            continue;
+        }
+        if (k < 64 || std::chrono::steady_clock::now() - start < kSpin) {
+            relax();
+            continue;
+        }
+        std::unique_lock lock(m_mutex);
+        ++m_parked;
+        // (the timeout only bounds the cost of a wake-up this reasoning missed)
+        m_wake.wait_for(lock, std::chrono::milliseconds(1),
+                        [&] { return ready() || m_epoch.load(std::memory_order_acquire) != seen; });
+        --m_parked;
+    }
+}
+
+void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_t)>& ready,
+                          const std::function<void(std::size_t)>& task) {
+    if (m_workers.empty() || count <= 1) {
+        for (std::size_t i = 0; i < count; ++i) {
+            task(i);
+        }
+        return;
+    }
+    struct Tasks {
+        WorkerPool* pool;
+        const std::function<bool(std::size_t)>* ready;
+        const std::function<void(std::size_t)>* task;
+        std::atomic<std::size_t> ended{0};
+    } tasks{this, &ready, &task};
+    Job job;
+    job.n = count;
+    job.grain = 1;
+    job.chunks = count;
+    job.helpable = false;
+    job.fn = &tasks;
+    job.call = [](void* f, std::size_t i, std::size_t, std::size_t) {
+        Tasks& t = *static_cast<Tasks*>(f);
+        t.pool->awaitReady([&] { return (*t.ready)(i); });
+        // a task that waits for this one may sleep: wake it, even when this one throws
+        struct Ended {
+            Tasks& t;
+            ~Ended() {
+                t.ended.fetch_add(1, std::memory_order_acq_rel);
+                t.pool->signal();
+            }
+        } ended{t};
+        (*t.task)(i);
+    };
+    post(job);
+    runChunks(job);
+    awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });
+    waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
+    retire(job);
+}
+
+} // namespace tumble
