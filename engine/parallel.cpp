@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 
 #if defined(__x86_64__) || defined(_M_X64)
@@ -270,6 +271,57 @@ void WorkerPool::awaitReady(const std::function<bool()>& ready) {
     }
 }
 
+/// The tasks of one runTasks call, as the threads running them share them.
+struct WorkerPool::TaskSet {
+    WorkerPool* pool;
+    std::size_t count;
+    const std::function<bool(std::size_t)>* ready;
+    const std::function<void(std::size_t)>* task;
+    std::unique_ptr<std::atomic<bool>[]> claimed;
+    std::atomic<std::size_t> claimedCount{0};
+    std::atomic<std::size_t> ended{0};
+
+    /// The lowest-numbered task not yet claimed whose dependencies are done, claimed; count if none.
+    std::size_t claimReady() {
+        for (std::size_t i = 0; i < count; ++i) {
+            if (!claimed[i].load(std::memory_order_acquire) && (*ready)(i) &&
+                !claimed[i].exchange(true, std::memory_order_acq_rel)) {
+                claimedCount.fetch_add(1, std::memory_order_acq_rel);
+                return i;
+            }
+        }
+        return count;
+    }
+    bool anyReady() const {
+        for (std::size_t i = 0; i < count; ++i) {
+            if (!claimed[i].load(std::memory_order_acquire) && (*ready)(i)) {
+                return true;
+            }
+        }
+        return false;
+    }
+    /// Runs ready tasks until every task is claimed; a thread never holds a task it cannot start.
+    void work() {
+        while (claimedCount.load(std::memory_order_acquire) < count) {
+            const std::size_t i = claimReady();
+            if (i == count) {
+                pool->awaitReady(
+                    [&] { return claimedCount.load(std::memory_order_acquire) == count || anyReady(); });
+                continue;
+            }
+            // a thread waiting for this one to end may sleep: wake it, even when this one throws
+            struct Ended {
+                TaskSet& t;
+                ~Ended() {
+                    t.ended.fetch_add(1, std::memory_order_acq_rel);
+                    t.pool->signal();
+                }
+            } endGuard{*this};
+            (*task)(i);
+        }
+    }
+};
+
 void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_t)>& ready,
                           const std::function<void(std::size_t)>& task) {
     if (m_workers.empty() || count <= 1) {
@@ -278,31 +330,15 @@ void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_
         }
         return;
     }
-    struct Tasks {
-        WorkerPool* pool;
-        const std::function<bool(std::size_t)>* ready;
-        const std::function<void(std::size_t)>* task;
-        std::atomic<std::size_t> ended{0};
-    } tasks{this, &ready, &task};
+    TaskSet tasks{this, count, &ready, &task, std::make_unique<std::atomic<bool>[]>(count)};
+    // one chunk per thread that joins in: each runs ready tasks until none is left to claim
     Job job;
-    job.n = count;
+    job.n = std::size_t(threads());
     job.grain = 1;
-    job.chunks = count;
+    job.chunks = job.n;
     job.helpable = false;
     job.fn = &tasks;
-    job.call = [](void* f, std::size_t i, std::size_t, std::size_t) {
-        Tasks& t = *static_cast<Tasks*>(f);
-        t.pool->awaitReady([&] { return (*t.ready)(i); });
-        // a task that waits for this one may sleep: wake it, even when this one throws
-        struct Ended {
-            Tasks& t;
-            ~Ended() {
-                t.ended.fetch_add(1, std::memory_order_acq_rel);
-                t.pool->signal();
-            }
-        } ended{t};
-        (*t.task)(i);
-    };
+    job.call = [](void* f, std::size_t, std::size_t, std::size_t) { static_cast<TaskSet*>(f)->work(); };
     post(job);
     runChunks(job);
     awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });

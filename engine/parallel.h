@@ -118,10 +118,11 @@ public:
         return total;
     }
 
-    /// Runs tasks 0..count-1, each once, starting them in index order as threads come free: task i starts
-    /// only after every task it depends on has finished (ready(i) says so; it is polled). While a thread
-    /// waits for a task to become ready it helps with the chunked loops of running tasks. Used by the
-    /// schedule to run systems side by side; ready() must only depend on lower-numbered tasks.
+    /// Runs tasks 0..count-1, each once: a thread that comes free starts the lowest-numbered task whose
+    /// dependencies have finished (ready(i) says so; it is polled), so a chain of dependent tasks stays on
+    /// one thread and a thread never holds a task it cannot start. While no task is ready a thread helps
+    /// with the chunked loops of running tasks, then sleeps until one ends. Used by the schedule to run
+    /// systems side by side; ready() must only depend on lower-numbered tasks.
     void runTasks(std::size_t count, const std::function<bool(std::size_t)>& ready,
                   const std::function<void(std::size_t)>& task);
 
@@ -132,6 +133,7 @@ public:
 private:
     using ChunkFn = void (*)(void* fn, std::size_t chunk, std::size_t begin, std::size_t end);
     struct Job;
+    struct TaskSet;
 
     void run(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call);
     void workerMain(int index);

@@ -12,6 +12,11 @@
 // changes in its own queue; the queues are applied in table order when the phase ends, then the world's
 // own (changes queued while applying them).
 //
+// Side by side only where it can pay: the first run of a phase is, and after it a phase runs side by
+// side while its systems' total time exceeds their critical path by kSideBySideGainNs (handing systems
+// between threads costs some microseconds each; a light scene runs faster on one thread). The choice
+// changes only the speed, never a bit. Systems split their own loops over the threads either way.
+//
 // The frame's critical path: for every run of the fixed phase, the longest chain of systems each waiting
 // for the one before (by the conflicts above), with the times they took: what that phase would cost with
 // a thread for every system. The profiler sums it over the frame's steps (FrameStats::criticalP50Ms).
@@ -24,6 +29,7 @@
 
 #include <atomic>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,6 +52,9 @@ public:
     /// then apply the queued structural changes; see the header comment.
     void run(Phase phase, World& world, const StepContext& ctx);
 
+    /// Run systems side by side at every run, not only where it pays (for the tests of the bits).
+    void setAlwaysSideBySide(bool always) { m_alwaysSideBySide = always; }
+
     /// Names of a phase's systems, in run order.
     std::vector<std::string> names(Phase phase) const;
     /// For each system of a phase, the earlier systems of the phase it waits for (their indices).
@@ -65,8 +74,11 @@ private:
         std::unique_ptr<std::atomic<bool>[]> done;
         std::vector<std::int64_t> ns;
         std::vector<Commands> queues;
+        /// What running side by side could save, judged by the last run (a first run assumes it pays).
+        std::int64_t gainNs = std::numeric_limits<std::int64_t>::max();
         void prepare(World& w, std::size_t n);
     };
+    static constexpr std::int64_t kSideBySideGainNs = 200'000;
     void runSystem(Entry& e, Run& run, std::size_t i, World& world, const StepContext& ctx);
     std::int64_t criticalPathNs(const std::vector<Entry>& entries, const std::vector<std::int64_t>& ns) const;
 
@@ -74,6 +86,7 @@ private:
     std::vector<Entry> m_phases[3];
     int m_phaseSlots[3];
     Run m_runs[3];
+    bool m_alwaysSideBySide = false;
 };
 
 } // namespace tumble

@@ -68,6 +68,7 @@ public:
     const World& world() const { return m_world; }
     Profiler& profiler() { return m_profiler; }
     const Schedule& schedule() const { return m_schedule; }
+    Schedule& schedule() { return m_schedule; }
     const Catalog& catalog() const { return m_catalog; }
 
     std::uint64_t frame() const { return m_frame; } ///< frames completed

@@ -4,6 +4,8 @@
 #   scripts/bootstrap.sh test   install what is missing, build Release, run the whole suite through ctest
 #   scripts/bootstrap.sh asan   the same suite in the AddressSanitizer + UBSan build (build-asan/), then each
 #                               fuzz target for $TUMBLE_FUZZ_SECONDS (default 60) in the clang build (build-fuzz/)
+#   scripts/bootstrap.sh tsan   the threaded tests (every thread count's hashes, the pool, the schedule) in
+#                               the ThreadSanitizer build (clang, build-tsan/)
 # It is safe to run again: packages already there are not reinstalled, builds are incremental.
 set -euo pipefail
 
@@ -81,8 +83,14 @@ asan)
     CXX=clang++ build build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTUMBLE_FUZZ=ON -DTUMBLE_TESTS=OFF -DTUMBLE_BENCH=OFF
     TUMBLE_FUZZ_SECONDS="${TUMBLE_FUZZ_SECONDS:-60}" ctest --test-dir "$root/build-fuzz" --output-on-failure -j "$jobs" -L fuzz
     ;;
+tsan)
+    CXX=clang++ build build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTUMBLE_TSAN=ON -DTUMBLE_BENCH=OFF
+    # every data race is an error; the tests that run physics on several threads, and the pool's own
+    TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+        ctest --test-dir "$root/build-tsan" --output-on-failure -j "$jobs" -R 'PinnedHash|WorkerPool|Schedule|Threads'
+    ;;
 *)
-    echo "usage: scripts/bootstrap.sh demo|test|asan" >&2
+    echo "usage: scripts/bootstrap.sh demo|test|asan|tsan" >&2
     exit 2
     ;;
 esac

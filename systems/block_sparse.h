@@ -174,6 +174,9 @@ struct BlockMatrix {
     void setZero();
     /// y = A x, for a matrix whose blocks are all symmetric (the solver's are)
     void multiply(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y) const;
+    /// Rows [first, end) of y = A x (y already sized): rows are independent, so threads may share them.
+    void multiplyRows(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y, std::uint32_t first,
+                      std::uint32_t end) const;
 };
 
 extern template struct Mat3T<float>;

@@ -127,15 +127,18 @@ void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out) {
     }
 }
 
-/// Dot product accumulated in double, in index order (deterministic, and exact enough for float vectors).
+/// Dot product accumulated in double: in index order within each chunk of kDotRows rows, the chunks'
+/// partials added in chunk order (the same bits at any thread count, and exact enough for float vectors).
 template <class S>
-double dotAll(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b) {
-    double s = 0.0;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) +
-             double(a[i].z) * double(b[i].z);
-    }
-    return s;
+double dotAll(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b, WorkerPool& pool) {
+    return pool.sum(a.size(), kDotRows, 0.0, [&](std::size_t first, std::size_t end) {
+        double s = 0.0;
+        for (std::size_t i = first; i < end; ++i) {
+            s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) +
+                 double(a[i].z) * double(b[i].z);
+        }
+        return s;
+    });
 }
 
 template <class S>
@@ -145,6 +148,19 @@ void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
             v[i] = Vec3T<S>{};
         }
     }
+}
+
+/// Rows per chunk of the solver's element-wise loops and products.
+constexpr std::size_t kRows = 2048;
+
+/// y = A x over the pool's threads.
+template <class S>
+void multiplyShared(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y,
+                    WorkerPool& pool) {
+    y.resize(a.n);
+    pool.forChunks(a.n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
+        a.multiplyRows(x, y, std::uint32_t(first), std::uint32_t(end));
+    });
 }
 
 } // namespace
@@ -345,12 +361,12 @@ void AggregationMultigrid<S>::apply(const std::vector<Vec>& r, std::vector<Vec>&
 template <class S>
 SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
                     AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed,
-                    double tol, int maxIterations, PcgVectors<S>& work) {
+                    double tol, int maxIterations, PcgVectors<S>& work, WorkerPool& pool) {
     SolveStats stats;
     const std::size_t n = a.n;
     x.resize(n);
     filter(x, fixed);
-    const double bnorm = std::sqrt(dotAll(b, b));
+    const double bnorm = std::sqrt(dotAll(b, b, pool));
     if (bnorm == 0.0) {
         std::fill(x.begin(), x.end(), Vec3T<S>{});
         stats.converged = true;
@@ -358,41 +374,49 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
     }
     auto& [r, z, p, ap] = work;
     r.resize(n);
-    a.multiply(x, ap);
+    multiplyShared(a, x, ap, pool);
     for (std::size_t i = 0; i < n; ++i) {
         r[i] = b[i] - ap[i];
     }
     filter(r, fixed);
-    double rnorm = std::sqrt(dotAll(r, r));
+    double rnorm = std::sqrt(dotAll(r, r, pool));
     preconditioner.apply(r, z);
     filter(z, fixed);
     p = z;
-    double rz = dotAll(r, z);
+    double rz = dotAll(r, z, pool);
     while (rnorm > tol * bnorm && stats.iterations < maxIterations) {
-        a.multiply(p, ap);
+        multiplyShared(a, p, ap, pool);
         filter(ap, fixed);
-        const double pap = dotAll(p, ap);
+        const double pap = dotAll(p, ap, pool);
         if (!(pap > 0.0)) {
             break; // lost positive definiteness to round-off: keep what we have
         }
         const S alpha = S(rz / pap);
-        for (std::size_t i = 0; i < n; ++i) {
-            x[i] += p[i] * alpha;
-            r[i] -= ap[i] * alpha;
-        }
+        // the update and the new residual's norm in one pass
+        rnorm = std::sqrt(pool.sum(n, kDotRows, 0.0, [&](std::size_t first, std::size_t end) {
+            double s = 0.0;
+            for (std::size_t i = first; i < end; ++i) {
+                x[i] += p[i] * alpha;
+                r[i] -= ap[i] * alpha;
+                s += double(r[i].x) * double(r[i].x) + double(r[i].y) * double(r[i].y) +
+                     double(r[i].z) * double(r[i].z);
+            }
+            return s;
+        }));
         ++stats.iterations;
-        rnorm = std::sqrt(dotAll(r, r));
         if (rnorm <= tol * bnorm) {
             break;
         }
         preconditioner.apply(r, z);
         filter(z, fixed);
-        const double rzNext = dotAll(r, z);
+        const double rzNext = dotAll(r, z, pool);
         const S beta = S(rzNext / rz);
         rz = rzNext;
-        for (std::size_t i = 0; i < n; ++i) {
-            p[i] = z[i] + p[i] * beta;
-        }
+        pool.forChunks(n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
+            for (std::size_t i = first; i < end; ++i) {
+                p[i] = z[i] + p[i] * beta;
+            }
+        });
     }
     stats.relativeResidual = rnorm / bnorm;
     stats.converged = rnorm <= tol * bnorm;
@@ -403,9 +427,9 @@ template class AggregationMultigrid<float>;
 template class AggregationMultigrid<double>;
 template SolveStats solvePcg(const BlockMatrix<float>&, const std::vector<Vec3T<float>>&,
                              std::vector<Vec3T<float>>&, AggregationMultigrid<float>&,
-                             const std::vector<std::uint8_t>&, double, int, PcgVectors<float>&);
+                             const std::vector<std::uint8_t>&, double, int, PcgVectors<float>&, WorkerPool&);
 template SolveStats solvePcg(const BlockMatrix<double>&, const std::vector<Vec3T<double>>&,
                              std::vector<Vec3T<double>>&, AggregationMultigrid<double>&,
-                             const std::vector<std::uint8_t>&, double, int, PcgVectors<double>&);
+                             const std::vector<std::uint8_t>&, double, int, PcgVectors<double>&, WorkerPool&);
 
 } // namespace tumble

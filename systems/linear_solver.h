@@ -18,6 +18,7 @@
 // diagonal is, and sums of symmetric blocks (Galerkin products, pinned rows cleared on both sides) are.
 // The kernels rely on it (Mat3 A_ji = A_ij, rows = columns).
 
+#include "engine/parallel.h"
 #include "systems/block_sparse.h"
 
 #include <cstddef>
@@ -97,11 +98,16 @@ struct SolveStats {
 
 /// Solves A x = b by preconditioned CG from the x given (a warm start). Rows with `fixed` set are held at
 /// zero (constraint filtering: their residual and search direction are zeroed). Stops when |r| <= tol |b|
-/// or after maxIterations. Deterministic: every reduction runs in index order.
+/// or after maxIterations. The products, updates and dot products share out over the pool's threads;
+/// a dot product adds one partial per chunk of kDotRows rows in chunk order, so any thread count gives
+/// the same bits. (The preconditioner's V-cycle runs on the calling thread.)
 template <class S>
 SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
                     AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed,
-                    double tol, int maxIterations, PcgVectors<S>& work);
+                    double tol, int maxIterations, PcgVectors<S>& work, WorkerPool& pool = serialPool());
+
+/// Rows per chunk of the solver's dot products (a system this small or smaller sums in plain index order).
+constexpr std::size_t kDotRows = 2048;
 
 extern template class AggregationMultigrid<float>;
 extern template class AggregationMultigrid<double>;

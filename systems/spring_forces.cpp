@@ -1,5 +1,6 @@
 #include "systems/spring_forces.h"
 
+#include "engine/parallel.h"
 #include "systems/block_sparse.h"
 #include "systems/field_forces.h"
 
@@ -19,7 +20,7 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
             pointFields = pointFields || !(surfaceWind && field.kind == FieldKind::Wind);
         }
     }
-    for (std::size_t i = 0; i < n; ++i) {
+    poolOr(env.pool).forEach(n, 2048, [&](std::size_t i) {
         const double m = 1.0 / net.invMass[i];
         Vec3 fi = env.gravity * m - v[i] * net.drag;
         if (pointFields) {
@@ -30,7 +31,7 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
             }
         }
         f[i] = fi;
-    }
+    });
     // wind on cloth: per triangle, along its normal, shared by its corners
     if (surfaceWind && env.fields) {
         for (const ForceField& field : *env.fields) {

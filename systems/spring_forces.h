@@ -19,6 +19,7 @@
 
 namespace tumble {
 class Profiler;
+class WorkerPool;
 }
 
 namespace tumble {
@@ -28,6 +29,7 @@ struct Environment {
     Vec3 gravity;                                    ///< m/s^2
     const std::vector<ForceField>* fields = nullptr; ///< the scene's force fields, or none
     Profiler* profiler = nullptr;                    ///< for the integrators' stages; null when untimed
+    WorkerPool* pool = nullptr; ///< threads for the per-mass and per-link loops; null: one thread
 };
 
 /// Gravity, drag and force fields on every mass (f is overwritten).

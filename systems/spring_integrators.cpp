@@ -1,5 +1,7 @@
 #include "systems/spring_integrators.h"
 
+#include "engine/parallel.h"
+
 #include "engine/profiler.h"
 
 #include <optional>
@@ -126,6 +128,23 @@ void buildPattern(const SpringNetwork& net, ImplicitSolver<S>& w) {
         const SpringLink& s = net.links[k];
         w.linkBlocks[k] = {w.system.find(s.a, s.b), w.system.find(s.b, s.a)};
     }
+    // each mass's links, in link order (a counting sort keeps it)
+    const std::size_t n = net.x.size();
+    w.incidentStart.assign(n + 1, 0);
+    for (const SpringLink& s : net.links) {
+        ++w.incidentStart[s.a + 1];
+        ++w.incidentStart[s.b + 1];
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        w.incidentStart[i + 1] += w.incidentStart[i];
+    }
+    w.incident.resize(2 * net.links.size());
+    std::vector<std::uint32_t> filled(w.incidentStart.begin(), w.incidentStart.end() - 1);
+    for (std::uint32_t k = 0; k < net.links.size(); ++k) {
+        w.incident[filled[net.links[k].a]++] = 2 * k;
+        w.incident[filled[net.links[k].b]++] = 2 * k + 1;
+    }
+    w.terms.resize(net.links.size());
     w.dv.assign(net.x.size(), Vec3T<S>{});
     w.multigrid = AggregationMultigrid<S>{};
 }
@@ -169,70 +188,86 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     // cloth triangles (lumped); b = h (F + h dF/dx v), where dF/dx v adds K (v_b - v_a) to a and its negative
     // to b. The diagonal is summed in double (a mass can be small beside its springs' terms) and stored in S
     // at the end; off-diagonal blocks are cleared, then summed (two links may join the same pair).
+    //
+    // In two passes that share out over threads with the same bits: each link's terms, then each mass
+    // gathers its links' terms in link order (exactly the additions, in the order, that a pass scattering
+    // link after link into both masses makes), and clears and sums its row's off-diagonal blocks.
+    WorkerPool& pool = poolOr(env.pool);
     std::vector<Vec3>& rhs = work.xs;     // double accumulation of the right-hand side
     std::vector<Mat3>& diagonal = w.sums; // double accumulation of the diagonal blocks
     diagonal.resize(n);
     rhs.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const double m = 1.0 / net.invMass[i];
-        diagonal[i] = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
-        rhs[i] = work.f[i] * h;
-    }
-    for (const auto& blocks : w.linkBlocks) {
-        a.val[blocks[0]] = a.val[blocks[1]] = Mat3T<S>{};
-    }
-    for (std::size_t k = 0; k < net.links.size(); ++k) {
+    pool.forEach(net.links.size(), 8192, [&](std::size_t k) {
         const SpringLink& s = net.links[k];
+        LinkTerms& t = w.terms[k];
         Mat3 stiff;
         Vec3 u;
         double len = 0.0;
-        if (!springStiffness(s, net.x[s.a], net.x[s.b], stiff, u, len)) {
-            continue;
+        t.active = springStiffness(s, net.x[s.a], net.x[s.b], stiff, u, len);
+        if (!t.active) {
+            return;
         }
         const Vec3 dvel = net.v[s.b] - net.v[s.a];
         const Vec3 fa = u * (s.k * (len - s.rest) + s.kd * dot(dvel, u));
-        rhs[s.a] += fa * h;
-        rhs[s.b] -= fa * h;
-        const Vec3 kdv = stiff * dvel;
-        rhs[s.a] += kdv * (h * h);
-        rhs[s.b] -= kdv * (h * h);
-        Mat3 block = Mat3::outer(u, h * s.kd);
-        block += scaled(stiff, h * h);
-        diagonal[s.a] += block;
-        diagonal[s.b] += block;
-        const Mat3T<S> blockS = block.template cast<S>();
-        a.val[w.linkBlocks[k][0]] -= blockS;
-        a.val[w.linkBlocks[k][1]] -= blockS;
-    }
+        t.force = fa * h;
+        t.stiffness = (stiff * dvel) * (h * h);
+        t.block = Mat3::outer(u, h * s.kd);
+        t.block += scaled(stiff, h * h);
+    });
+    pool.forEach(n, 2048, [&](std::size_t i) {
+        const double m = 1.0 / net.invMass[i];
+        Mat3 d = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
+        Vec3 r = work.f[i] * h;
+        const std::uint32_t* first = w.incident.data() + w.incidentStart[i];
+        const std::uint32_t* last = w.incident.data() + w.incidentStart[i + 1];
+        for (const std::uint32_t* it = first; it != last; ++it) {
+            a.val[w.linkBlocks[*it / 2][*it % 2]] = Mat3T<S>{};
+        }
+        for (const std::uint32_t* it = first; it != last; ++it) {
+            const std::uint32_t k = *it / 2, side = *it % 2;
+            const LinkTerms& t = w.terms[k];
+            if (!t.active) {
+                continue;
+            }
+            if (side == 0) {
+                r += t.force;
+                r += t.stiffness;
+            } else {
+                r -= t.force;
+                r -= t.stiffness;
+            }
+            d += t.block;
+            a.val[w.linkBlocks[k][side]] -= t.block.template cast<S>();
+        }
+        diagonal[i] = d;
+        rhs[i] = r;
+    });
     addSurfaceWindDamping(net, env, h, diagonal);
-    for (std::size_t i = 0; i < n; ++i) {
-        a.val[a.diag[i]] = diagonal[i].template cast<S>();
-    }
     // constraint filtering: a pinned mass's row and column become the identity, its dv zero
     for (std::uint32_t b : w.pinnedBlocks) {
         a.val[b] = Mat3T<S>{};
     }
     w.rhs.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
+    pool.forEach(n, 2048, [&](std::size_t i) {
         if (net.pinned[i]) {
             a.val[a.diag[i]] = Mat3T<S>::identity();
             w.rhs[i] = Vec3T<S>{};
         } else {
+            a.val[a.diag[i]] = diagonal[i].template cast<S>();
             w.rhs[i] = Vec3T<S>::from(rhs[i]);
         }
-    }
+    });
 
     stage.emplace(env.profiler, "springs.solve");
     w.multigrid.update(a);
     const SolveStats stats =
-        solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg);
-    for (std::size_t i = 0; i < n; ++i) {
-        if (net.pinned[i]) {
-            continue;
+        solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg, pool);
+    pool.forEach(n, 2048, [&](std::size_t i) {
+        if (!net.pinned[i]) {
+            net.v[i] += w.dv[i].toVec3();
+            net.x[i] += net.v[i] * h;
         }
-        net.v[i] += w.dv[i].toVec3();
-        net.x[i] += net.v[i] * h;
-    }
+    });
     return stats;
 }
 

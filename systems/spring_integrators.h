@@ -30,10 +30,23 @@ namespace tumble {
 
 /// The implicit solver's state in one precision: the system (fixed pattern), its preconditioner, and the
 /// last velocity change (the next solve's warm start).
+/// One link's share of the implicit system in a step: the force and stiffness terms it adds to the
+/// right-hand side of its masses (h F and h^2 K dv), and its block (h kd uu^T + h^2 K).
+struct LinkTerms {
+    Vec3 force;     ///< h F_a
+    Vec3 stiffness; ///< h^2 K (v_b - v_a)
+    Mat3 block;
+    bool active = false; ///< false for coincident masses: no direction, nothing added
+};
+
 template <class S>
 struct ImplicitSolver {
     BlockMatrix<S> system;                                ///< the links plus the diagonal
     std::vector<std::array<std::uint32_t, 2>> linkBlocks; ///< per link: its (a, b) and (b, a) blocks
+    /// Per mass, its links in link order (link index * 2 + 1 when the mass is the link's b): assembly
+    /// gathers each mass's sums from them, in the order a scatter over the links would add them.
+    std::vector<std::uint32_t> incidentStart, incident;
+    std::vector<LinkTerms> terms;                         ///< per link, this step's terms (see implicitEuler)
     std::vector<Mat3> sums;                               ///< the diagonal blocks, summed in double
     std::vector<std::uint32_t> pinnedBlocks;              ///< blocks to clear for pinned rows and columns
     AggregationMultigrid<S> multigrid;

@@ -2,6 +2,7 @@
 
 #include "components/rigid_body.h"
 #include "engine/name.h"
+#include "engine/parallel.h"
 #include "engine/random.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
@@ -461,42 +462,69 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
     }
 }
 
+namespace {
+
+/// One network's step, as integrateSprings takes it apart.
+struct NetworkStep {
+    const Name* name;
+    SpringNetwork* net;
+    SpringWorkspace* work;
+    bool threw = false;
+    std::string problem;
+};
+
+/// Freezes a network that blew up where it is, and says so once; the rest of the scene runs on.
+void freeze(World& world, const StepContext& ctx, NetworkStep& s) {
+    SpringNetwork& net = *s.net;
+    net.frozen = true;
+    for (Vec3& v : net.v) {
+        v = Vec3{};
+    }
+    RunReport& report = world.resource<RunReport>();
+    (net.blowUpFails ? report.failures : report.notes)
+        .push_back("entity '" + s.name->value + "' blew up at frame " + std::to_string(ctx.frame) + " (t = " +
+                   std::to_string(ctx.time) + " s) under " + std::string(integratorName(net.integrator)) +
+                   ": " + s.problem + "; it is frozen from here on. Remedy: " + remedy(net, ctx));
+}
+
+} // namespace
+
 void integrateSprings(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Pool<ForceField>* fields = world.findPool<ForceField>();
-    const Environment env{
-        {g[0], g[1], g[2]}, fields && fields->size() > 0 ? &fields->values() : nullptr, ctx.profiler};
+    const Environment env{{g[0], g[1], g[2]},
+                          fields && fields->size() > 0 ? &fields->values() : nullptr,
+                          ctx.profiler,
+                          ctx.pool};
+    // the networks step side by side (each touches only itself); what touches bodies runs before and
+    // after, in entity order: following reads bodies, pulling adds to their impulses
+    std::vector<NetworkStep> steps;
     world.view<const Name, SpringNetwork, SpringWorkspace>().each(
         [&](Entity, const Name& name, SpringNetwork& net, SpringWorkspace& work) {
-            if (net.frozen) {
-                return;
-            }
-            std::string problem;
-            try {
+            if (!net.frozen) {
                 followAnchors(world, net);
-                stepNetwork(net, work, env, ctx.dt);
-                pullAnchors(world, net, env, ctx.dt);
-                if (blewUp(net)) {
-                    problem = "its state became non-finite or faster than 10 km/s";
-                }
-            } catch (const SolverError& e) {
-                problem = e.what();
+                steps.push_back({&name, &net, &work, false, {}});
             }
-            if (problem.empty()) {
-                return;
-            }
-            // freeze it where it is, say so once, and let the rest of the scene run on
-            net.frozen = true;
-            for (Vec3& v : net.v) {
-                v = Vec3{};
-            }
-            RunReport& report = world.resource<RunReport>();
-            (net.blowUpFails ? report.failures : report.notes)
-                .push_back("entity '" + name.value + "' blew up at frame " + std::to_string(ctx.frame) +
-                           " (t = " + std::to_string(ctx.time) + " s) under " +
-                           std::string(integratorName(net.integrator)) + ": " + problem +
-                           "; it is frozen from here on. Remedy: " + remedy(net, ctx));
         });
+    poolOr(ctx.pool).forEach(steps.size(), 1, [&](std::size_t i) {
+        try {
+            stepNetwork(*steps[i].net, *steps[i].work, env, ctx.dt);
+        } catch (const SolverError& e) {
+            steps[i].threw = true;
+            steps[i].problem = e.what();
+        }
+    });
+    for (NetworkStep& s : steps) {
+        if (!s.threw) {
+            pullAnchors(world, *s.net, env, ctx.dt);
+            if (blewUp(*s.net)) {
+                s.problem = "its state became non-finite or faster than 10 km/s";
+            }
+        }
+        if (!s.problem.empty()) {
+            freeze(world, ctx, s);
+        }
+    }
 }
 
 void registerSpringSystem(Catalog& catalog) {

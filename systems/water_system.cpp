@@ -2,6 +2,7 @@
 
 #include "components/rigid_body.h"
 #include "engine/name.h"
+#include "engine/parallel.h"
 #include "engine/profiler.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
@@ -73,15 +74,19 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
     world.emplace<Water>(entity, std::move(w));
 }
 
-/// One wave step of dt: v += dt (c^2 Lap(h) - damping v), then h += dt v (symplectic Euler).
-void waveStep(Water& w, double dt) {
+/// One wave step of dt: v += dt (c^2 Lap(h) - damping v), then h += dt v (symplectic Euler). Rows of the
+/// grid are shared out in chunks (each row's new v reads only h), so any thread count gives the same bits.
+void waveStep(Water& w, double dt, WorkerPool& pool) {
     const int nx = w.nx, nz = w.nz;
     const double ax = w.waveSpeed * w.waveSpeed / (w.dx() * w.dx());
     const double az = w.waveSpeed * w.waveSpeed / (w.dz() * w.dz());
     const double keep = std::exp(-dt * w.damping); // exact decay: stable at any damping
     double* h = w.h.data();
     double* v = w.v.data();
-    for (int k = 0; k < nz; ++k) {
+    // rows per chunk: about 16k nodes, enough work to be worth a thread
+    const std::size_t rowsPerChunk = std::max<std::size_t>(1, (std::size_t(1) << 14) / std::size_t(nx));
+    pool.forEach(std::size_t(nz), rowsPerChunk, [&](std::size_t row_) {
+        const int k = int(row_);
         // a reflecting border mirrors the row or column next to it (zero slope across the border)
         const double* row = h + std::size_t(k) * nx;
         const double* below = h + std::size_t(k > 0 ? k - 1 : 1) * nx;
@@ -97,7 +102,7 @@ void waveStep(Water& w, double dt) {
         const int e = nx - 1;
         vr[e] = keep * vr[e] +
                 dt * (ax * 2.0 * (row[e - 1] - row[e]) + az * (below[e] + above[e] - 2.0 * row[e]));
-    }
+    });
     if (w.border == WaterBorder::Absorb) {
         // the border moves as a wave leaving it would: u_t = -c du/dn (n outward), from the slope inside
         const double cx = w.waveSpeed / w.dx(), cz = w.waveSpeed / w.dz();
@@ -112,10 +117,11 @@ void waveStep(Water& w, double dt) {
             v[last] = cz * (h[last - nx] - h[last]);
         }
     }
-    const std::size_t n = w.h.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        h[i] += dt * v[i];
-    }
+    pool.forChunks(w.h.size(), std::size_t(1) << 14, [&](std::size_t, std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            h[i] += dt * v[i];
+        }
+    });
 }
 
 /// The vertical extent of a body's column at world (x, z), and how much of the node's cell it covers, or
@@ -339,7 +345,7 @@ void stepWater(World& world, const StepContext& ctx) {
         }
         ProfileStage stage(ctx.profiler, "water.waves");
         for (std::uint32_t s = 0; s < substeps; ++s) {
-            waveStep(w, ctx.dt / substeps);
+            waveStep(w, ctx.dt / substeps, poolOr(ctx.pool));
         }
     });
 }
