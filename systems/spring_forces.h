@@ -20,7 +20,7 @@
 namespace tumble {
 class Profiler;
 class WorkerPool;
-}
+} // namespace tumble
 
 namespace tumble {
 

@@ -46,9 +46,9 @@ struct ImplicitSolver {
     /// Per mass, its links in link order (link index * 2 + 1 when the mass is the link's b): assembly
     /// gathers each mass's sums from them, in the order a scatter over the links would add them.
     std::vector<std::uint32_t> incidentStart, incident;
-    std::vector<LinkTerms> terms;                         ///< per link, this step's terms (see implicitEuler)
-    std::vector<Mat3> sums;                               ///< the diagonal blocks, summed in double
-    std::vector<std::uint32_t> pinnedBlocks;              ///< blocks to clear for pinned rows and columns
+    std::vector<LinkTerms> terms;            ///< per link, this step's terms (see implicitEuler)
+    std::vector<Mat3> sums;                  ///< the diagonal blocks, summed in double
+    std::vector<std::uint32_t> pinnedBlocks; ///< blocks to clear for pinned rows and columns
     AggregationMultigrid<S> multigrid;
     PcgVectors<S> pcg;
     std::vector<Vec3T<S>> rhs;
