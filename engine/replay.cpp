@@ -302,7 +302,9 @@ std::uint64_t parseHeader(const std::string& path, const std::string& bytes, Rep
     if (file.header.version != kReplayVersion) {
         throw ReplayError(path, 8,
                           "format version " + std::to_string(file.header.version) +
-                              "; this build reads version " + std::to_string(kReplayVersion));
+                              "; this build reads version " + std::to_string(kReplayVersion) +
+                              " (the version goes up when the simulated bits change, so a replay of another "
+                              "version cannot verify here: record it again with this build)");
     }
     const auto headerBytes = top.get<std::uint32_t>("the header's length");
     const std::uint64_t headerAt = top.offset();

@@ -69,7 +69,9 @@ struct ReplayFile {
     std::uint64_t fileBytes = 0;
 };
 
-inline constexpr std::uint32_t kReplayVersion = 1;
+/// Goes up whenever the simulated bits change (2: the multicolour smoother of large cloths), so that a
+/// replay of other physics is refused with a message rather than failing to verify.
+inline constexpr std::uint32_t kReplayVersion = 2;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.

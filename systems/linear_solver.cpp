@@ -120,11 +120,9 @@ void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& bloc
 }
 
 template <class S>
-void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out) {
+void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out, WorkerPool& pool) {
     out.resize(a.n);
-    for (std::uint32_t i = 0; i < a.n; ++i) {
-        out[i] = a.val[a.diag[i]].inverse();
-    }
+    pool.forEach(a.n, 4096, [&](std::size_t i) { out[i] = a.val[a.diag[i]].inverse(); });
 }
 
 /// Dot product accumulated in double: in index order within each chunk of kDotRows rows, the chunks'
@@ -163,6 +161,47 @@ void multiplyShared(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& x, std
     });
 }
 
+/// Greedy colouring of the blocks of kSmoothBlock rows, in block order: each block takes the lowest colour
+/// none of its earlier neighbours has (a neighbour: a block holding a column of one of its rows). A grid
+/// numbered row by row couples only nearby blocks, so two or three colours do. Fixed by the pattern.
+template <class S>
+void colourBlocks(const BlockMatrix<S>& a, std::vector<std::uint32_t>& start,
+                  std::vector<std::uint32_t>& blocks) {
+    const std::uint32_t count = (a.n + kSmoothBlock - 1) / kSmoothBlock;
+    std::vector<std::uint32_t> colour(count, 0);
+    std::vector<std::uint8_t> used;
+    std::uint32_t colours = 0;
+    for (std::uint32_t k = 0; k < count; ++k) {
+        used.assign(std::size_t(colours) + 1, 0);
+        for (std::uint32_t i = k * kSmoothBlock; i < std::min(a.n, (k + 1) * kSmoothBlock); ++i) {
+            for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
+                const std::uint32_t other = a.col[b] / kSmoothBlock;
+                if (other < k) {
+                    used[colour[other]] = 1;
+                }
+            }
+        }
+        std::uint32_t c = 0;
+        while (used[c]) {
+            ++c;
+        }
+        colour[k] = c;
+        colours = std::max(colours, c + 1);
+    }
+    start.assign(std::size_t(colours) + 1, 0);
+    for (std::uint32_t k = 0; k < count; ++k) {
+        ++start[colour[k] + 1];
+    }
+    for (std::uint32_t c = 0; c < colours; ++c) {
+        start[c + 1] += start[c];
+    }
+    blocks.resize(count);
+    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    for (std::uint32_t k = 0; k < count; ++k) {
+        blocks[next[colour[k]]++] = k;
+    }
+}
+
 } // namespace
 
 template <class S>
@@ -190,11 +229,19 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
         m_levels.push_back(std::move(level));
         current = &m_levels.back().a;
     }
+    // the levels that are smoothed (every one but the coarsest, solved directly) and big enough to share
+    m_colours.assign(m_levels.size(), Colouring{});
+    for (std::size_t l = 0; l < m_levels.size(); ++l) {
+        const BlockMatrix<S>& a = l == 0 ? fine : m_levels[l - 1].a;
+        if (a.n >= kColouredRows) {
+            colourBlocks(a, m_colours[l].start, m_colours[l].blocks);
+        }
+    }
     m_built = true;
 }
 
 template <class S>
-void AggregationMultigrid<S>::update(const BlockMatrix<S>& a) {
+void AggregationMultigrid<S>::update(const BlockMatrix<S>& a, WorkerPool& pool) {
     m_fine = &a;
     if (!m_built) {
         build(a);
@@ -205,9 +252,9 @@ void AggregationMultigrid<S>::update(const BlockMatrix<S>& a) {
             finer = &level.a;
         }
     }
-    invertDiagonal(a, m_fineDiagInverse);
+    invertDiagonal(a, m_fineDiagInverse, pool);
     for (Level& level : m_levels) {
-        invertDiagonal(level.a, level.diagInverse);
+        invertDiagonal(level.a, level.diagInverse, pool);
     }
     factorCoarsest();
 }
@@ -314,7 +361,44 @@ void AggregationMultigrid<S>::smoothBackward(const BlockMatrix<S>& a, const std:
 }
 
 template <class S>
-void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x) {
+void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
+                                            const Colouring& colours, bool forward, const std::vector<Vec>& b,
+                                            std::vector<Vec>& x, WorkerPool& pool) const {
+    // colour after colour, each colour's blocks at once, rows in order inside a block (forward; backward
+    // is the exact reverse order, so the V-cycle stays symmetric). A block reads other blocks of its
+    // colour nowhere, so any thread count gives the same bits.
+    auto smoothRow = [&](std::uint32_t i) {
+        Vec s = b[i];
+        for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[std::size_t(i) + 1]; ++bl) {
+            if (bl != a.diag[i]) {
+                s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
+            }
+        }
+        x[i] = symmetricTimes(dinv[i], s);
+    };
+    const std::size_t count = colours.start.size() - 1;
+    for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t c = forward ? k : count - 1 - k;
+        const std::uint32_t first = colours.start[c];
+        pool.forEach(colours.start[c + 1] - first, 1, [&](std::size_t at) {
+            const std::uint32_t block = colours.blocks[first + at];
+            const std::uint32_t begin = block * kSmoothBlock, end = std::min(a.n, begin + kSmoothBlock);
+            if (forward) {
+                for (std::uint32_t i = begin; i < end; ++i) {
+                    smoothRow(i);
+                }
+            } else {
+                for (std::uint32_t i = end; i-- > begin;) {
+                    smoothRow(i);
+                }
+            }
+        });
+    }
+}
+
+template <class S>
+void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x,
+                                    WorkerPool& pool) {
     if (level == m_levels.size()) {
         solveCoarsest(b, x);
         return;
@@ -323,6 +407,27 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     const std::vector<Mat>& dinv = level == 0 ? m_fineDiagInverse : m_levels[level - 1].diagInverse;
     std::vector<Vec>& r = level == 0 ? m_fineResidual : m_levels[level - 1].r;
     Level& next = m_levels[level];
+    if (!m_colours[level].start.empty()) {
+        // forward by colour from x = 0, the residual b - A x by rows, restrict, correct on the coarser
+        // level, prolong, and backward by colour
+        x.assign(a.n, Vec{});
+        smoothColours(a, dinv, m_colours[level], true, b, x, pool);
+        r.resize(a.n);
+        pool.forChunks(a.n, 2048, [&](std::size_t, std::size_t first, std::size_t end) {
+            a.multiplyRows(x, r, std::uint32_t(first), std::uint32_t(end));
+            for (std::size_t i = first; i < end; ++i) {
+                r[i] = b[i] - r[i];
+            }
+        });
+        next.b.assign(next.a.n, Vec{});
+        for (std::uint32_t i = 0; i < a.n; ++i) {
+            next.b[next.group[i]] += r[i];
+        }
+        cycle(level + 1, next.b, next.x, pool);
+        pool.forEach(a.n, 4096, [&](std::size_t i) { x[i] += next.x[next.group[i]]; });
+        smoothColours(a, dinv, m_colours[level], false, b, x, pool);
+        return;
+    }
 
     // forward Gauss-Seidel from x = 0 and the residual after it, in one pass over the lower blocks: row i
     // sees only new values below it (s_i = b_i - sum_{j<i} A_ij x_j, x_i = D_i^-1 s_i), and since
@@ -346,7 +451,7 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     for (std::uint32_t i = 0; i < a.n; ++i) {
         next.b[next.group[i]] += r[i];
     }
-    cycle(level + 1, next.b, next.x);
+    cycle(level + 1, next.b, next.x, pool);
     for (std::uint32_t i = 0; i < a.n; ++i) {
         x[i] += next.x[next.group[i]];
     }
@@ -354,8 +459,8 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
 }
 
 template <class S>
-void AggregationMultigrid<S>::apply(const std::vector<Vec>& r, std::vector<Vec>& z) {
-    cycle(0, r, z);
+void AggregationMultigrid<S>::apply(const std::vector<Vec>& r, std::vector<Vec>& z, WorkerPool& pool) {
+    cycle(0, r, z, pool);
 }
 
 template <class S>
@@ -372,7 +477,11 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
         stats.converged = true;
         return stats;
     }
-    auto& [r, z, p, ap] = work;
+    // named references, not a structured binding: clang 14 cannot capture a binding in a lambda
+    std::vector<Vec3T<S>>& r = work.r;
+    std::vector<Vec3T<S>>& z = work.z;
+    std::vector<Vec3T<S>>& p = work.p;
+    std::vector<Vec3T<S>>& ap = work.ap;
     r.resize(n);
     multiplyShared(a, x, ap, pool);
     for (std::size_t i = 0; i < n; ++i) {
@@ -380,7 +489,7 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
     }
     filter(r, fixed);
     double rnorm = std::sqrt(dotAll(r, r, pool));
-    preconditioner.apply(r, z);
+    preconditioner.apply(r, z, pool);
     filter(z, fixed);
     p = z;
     double rz = dotAll(r, z, pool);
@@ -407,7 +516,7 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
         if (rnorm <= tol * bnorm) {
             break;
         }
-        preconditioner.apply(r, z);
+        preconditioner.apply(r, z, pool);
         filter(z, fixed);
         const double rzNext = dotAll(r, z, pool);
         const S beta = S(rzNext / rz);

@@ -44,9 +44,15 @@ public:
     using Mat = Mat3T<S>;
 
     /// Prepares for a new matrix value set (same pattern as the first call, which also builds the levels).
-    void update(const BlockMatrix<S>& a);
-    /// z = one V-cycle applied to r (an approximation of A^-1 r).
-    void apply(const std::vector<Vec>& r, std::vector<Vec>& z);
+    void update(const BlockMatrix<S>& a, WorkerPool& pool = serialPool());
+    /// z = one V-cycle applied to r (an approximation of A^-1 r). Levels of kColouredRows rows or more
+    /// smooth colour by colour, each colour's blocks of rows shared out over the pool's threads.
+    void apply(const std::vector<Vec>& r, std::vector<Vec>& z, WorkerPool& pool = serialPool());
+    /// Colours of a level's smoother (0 for a level smoothed row after row).
+    std::size_t colours(std::size_t level) const {
+        return level < m_colours.size() && !m_colours[level].start.empty() ? m_colours[level].start.size() - 1
+                                                                           : 0;
+    }
     /// Number of levels, the finest included.
     std::size_t levels() const { return m_levels.size() + 1; }
     /// Rows and stored blocks of a coarse level (1 = the first coarse one).
@@ -63,19 +69,29 @@ private:
         std::vector<Vec> x, b, r;             ///< work vectors
     };
 
+    /// The level's rows cut into blocks of kSmoothBlock consecutive rows, the blocks grouped by colour: no
+    /// two blocks of a colour share a matrix block, so a colour's blocks can be smoothed at once, each
+    /// row after row inside. blocks[start[c] .. start[c + 1]) are colour c's, in order.
+    struct Colouring {
+        std::vector<std::uint32_t> start, blocks;
+    };
+
     void build(const BlockMatrix<S>& fine);
     void smoothBackward(const BlockMatrix<S>& a, const std::vector<Mat>& dinv, const std::vector<Vec>& b,
                         std::vector<Vec>& x) const;
-    void cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x);
+    void smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv, const Colouring& colours,
+                       bool forward, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool) const;
+    void cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool);
     void factorCoarsest();
     bool factorDense(std::size_t dim, double shift);
     void solveCoarsest(const std::vector<Vec>& b, std::vector<Vec>& x) const;
 
     const BlockMatrix<S>* m_fine = nullptr;
     std::vector<Mat> m_fineDiagInverse;
-    std::vector<Level> m_levels;    ///< coarser and coarser; the last is solved directly
-    std::vector<double> m_cholesky; ///< dense lower factor of the coarsest operator (or of the fine one)
-    std::vector<double> m_dense;    ///< the coarsest operator before factorisation (for a shifted retry)
+    std::vector<Level> m_levels;      ///< coarser and coarser; the last is solved directly
+    std::vector<Colouring> m_colours; ///< per smoothed level (0: the fine one); empty: row after row
+    std::vector<double> m_cholesky;   ///< dense lower factor of the coarsest operator (or of the fine one)
+    std::vector<double> m_dense;      ///< the coarsest operator before factorisation (for a shifted retry)
     mutable std::vector<double> m_coarseWork;
     std::vector<Mat3> m_sums; ///< double accumulators of the Galerkin sums
     std::size_t m_coarsestDim = 0;
@@ -108,6 +124,11 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
 
 /// Rows per chunk of the solver's dot products (a system this small or smaller sums in plain index order).
 constexpr std::size_t kDotRows = 2048;
+/// A multigrid level of this many rows or more is smoothed by multicolour block Gauss-Seidel (blocks of
+/// kSmoothBlock rows, a colour's blocks shared out over threads, rows in order inside a block); a smaller
+/// one row after row, as one block.
+constexpr std::uint32_t kColouredRows = 4096;
+constexpr std::uint32_t kSmoothBlock = 256;
 
 extern template class AggregationMultigrid<float>;
 extern template class AggregationMultigrid<double>;

@@ -259,7 +259,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     });
 
     stage.emplace(env.profiler, "springs.solve");
-    w.multigrid.update(a);
+    w.multigrid.update(a, pool);
     const SolveStats stats =
         solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg, pool);
     pool.forEach(n, 2048, [&](std::size_t i) {

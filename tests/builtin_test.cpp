@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 namespace tumble {
 namespace {
 
@@ -30,6 +32,30 @@ TEST(BuiltinSystems, RunInTheStatedOrder) {
     EXPECT_EQ(sim->schedule().names(Phase::Fixed), fixed);
     EXPECT_EQ(sim->schedule().names(Phase::Frame), frame);
     EXPECT_EQ(sim->schedule().names(Phase::Input), (std::vector<std::string>{"events"}));
+}
+
+TEST(BuiltinSystems, WhatRunsSideBySideIsWhatTheArchitectureSays) {
+    // docs/architecture.md, "Declared access": the pairs it names do not wait for each other, and the
+    // systems that write RunReport or pass RigidBody on do
+    auto sim = test::makeSimulation("[scene]\nname = \"empty\"\n");
+    const std::vector<std::string> names = sim->schedule().names(Phase::Fixed);
+    const auto waits = sim->schedule().waitsFor(Phase::Fixed);
+    auto index = [&](const std::string& name) {
+        return std::size_t(std::find(names.begin(), names.end(), name) - names.begin());
+    };
+    auto waitsFor = [&](const std::string& later, const std::string& earlier) {
+        const auto& w = waits[index(later)];
+        return std::find(w.begin(), w.end(), index(earlier)) != w.end();
+    };
+    EXPECT_TRUE(waits[index("force_fields")].empty());
+    EXPECT_TRUE(waits[index("emitters")].empty());
+    EXPECT_FALSE(waitsFor("particles", "mouse_spring"));
+    EXPECT_FALSE(waitsFor("springs", "particles"));
+    EXPECT_FALSE(waitsFor("box2d", "bullet"));
+    EXPECT_TRUE(waitsFor("particles", "emitters"));
+    EXPECT_TRUE(waitsFor("cloth_collision", "springs"));
+    EXPECT_TRUE(waitsFor("rigid_out", "bullet"));
+    EXPECT_TRUE(waitsFor("water", "rigid_out"));
 }
 
 TEST(BuiltinSystems, OnlyTheRendererTouchesRenderState) {

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 namespace tumble {
 namespace {
 
@@ -71,6 +73,30 @@ TEST(AggregationMultigrid, VCycleIsSymmetricAndPositive) {
     EXPECT_GT(dotv(mx, x), 0.0);
 }
 
+TEST(AggregationMultigrid, TheColouredVCycleIsSymmetricAndPositiveAndSharesOutWithTheSameBits) {
+    // 80 x 80 = 6400 rows: the fine level is smoothed colour by colour
+    std::vector<std::uint8_t> pinned;
+    const BlockMatrix<double> a = clothMatrix<double>(80, pinned);
+    AggregationMultigrid<double> mg;
+    mg.update(a);
+    ASSERT_GE(mg.colours(0), 2u) << "the fine level should be coloured";
+    EXPECT_LE(mg.colours(0), 4u) << "blocks of a grid numbered row by row need few colours";
+    const auto x = randomVector<double>(a.n, 1, pinned), y = randomVector<double>(a.n, 2, pinned);
+    std::vector<Vec3T<double>> mx, my;
+    mg.apply(x, mx);
+    mg.apply(y, my);
+    EXPECT_NEAR(dotv(mx, y), dotv(x, my), 1e-10 * std::abs(dotv(mx, y)));
+    EXPECT_GT(dotv(mx, x), 0.0);
+    for (int threads : {2, 3, 7}) {
+        WorkerPool pool(threads);
+        std::vector<Vec3T<double>> shared;
+        mg.apply(x, shared, pool);
+        ASSERT_EQ(shared.size(), mx.size());
+        EXPECT_EQ(std::memcmp(shared.data(), mx.data(), mx.size() * sizeof(mx[0])), 0)
+            << threads << " threads";
+    }
+}
+
 template <class S>
 void solvesCloth(int n, double tol, int maxIterations) {
     std::vector<std::uint8_t> pinned;
@@ -80,7 +106,8 @@ void solvesCloth(int n, double tol, int maxIterations) {
     const auto b = randomVector<S>(a.n, 7, pinned);
     std::vector<Vec3T<S>> x(a.n);
     PcgVectors<S> work;
-    const SolveStats stats = solvePcg(a, b, x, mg, pinned, tol, 500, work);
+    WorkerPool pool(2);
+    const SolveStats stats = solvePcg(a, b, x, mg, pinned, tol, 500, work, pool);
     EXPECT_TRUE(stats.converged);
     EXPECT_LE(stats.iterations, maxIterations) << "multigrid keeps the count low";
     // check the residual independently

@@ -99,6 +99,20 @@ TEST(Replay, AFileCutShortPlaysUpToItsLastWholeChunk) {
     EXPECT_NE(r.err.find("replay verified"), std::string::npos) << r.err;
 }
 
+TEST(Replay, AReplayOfAnotherFormatVersionIsRefusedWithWhy) {
+    // a replay recorded before the bits last changed (version 1) must be refused, saying why, not fail to
+    // verify frame after frame
+    std::string bytes = test::readFile(recordPendulum("old.tumble", 8));
+    const std::uint32_t old = kReplayVersion - 1;
+    std::memcpy(bytes.data() + 8, &old, 4);
+    const std::string path = test::writeTemp("old_version.tumble", bytes);
+    const auto r =
+        test::runTumble({"replay", path, "--verify", "--no-render", "--out", test::tempPath("o_out")});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find("format version " + std::to_string(old)), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("record it again"), std::string::npos) << r.err;
+}
+
 TEST(Replay, AnAlteredScenarioDivergesAndIsNamed) {
     const std::string path = recordPendulum("altered.tumble", 60);
     ReplayFile file = readReplay(path);

@@ -4,6 +4,7 @@
 // are the same scene with overrides.
 //   build/tests/bench/tumble_bench --benchmark_filter=Curtain --benchmark_repetitions=5
 
+#include "engine/parallel.h"
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/spring_forces.h"
@@ -27,7 +28,7 @@ const Catalog& catalog() {
 }
 
 void curtainStep(benchmark::State& state, std::vector<std::string> overrides, int warmFrames,
-                 bool withWind = true) {
+                 bool withWind = true, int threads = 1) {
     const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
     std::string text = readScenarioFile(path);
     if (!withWind) {
@@ -39,9 +40,11 @@ void curtainStep(benchmark::State& state, std::vector<std::string> overrides, in
         sim.runFrame();
     }
     // time the spring system alone, one fixed step at a time, at the scene's dt
+    WorkerPool pool(threads);
     StepContext ctx;
     ctx.dt = sim.scene().dt;
     ctx.seed = sim.scene().seed;
+    ctx.pool = &pool;
     double iterations = 0.0;
     for (auto _ : state) {
         integrateSprings(sim.world(), ctx);
@@ -55,15 +58,16 @@ void curtainStep(benchmark::State& state, std::vector<std::string> overrides, in
     state.counters["cg_iterations"] = iterations / static_cast<double>(state.iterations());
 }
 
+// the argument is the thread count (the ratio of /2 to /1 is what a second core buys)
 void BM_CurtainImplicit35(benchmark::State& state) {
-    curtainStep(state, {}, 120);
+    curtainStep(state, {}, 120, true, int(state.range(0)));
 }
-BENCHMARK(BM_CurtainImplicit35)->Unit(benchmark::kMillisecond)->Iterations(300);
+BENCHMARK(BM_CurtainImplicit35)->Unit(benchmark::kMillisecond)->Iterations(300)->Arg(1)->Arg(2);
 
 void BM_CurtainImplicit100(benchmark::State& state) {
-    curtainStep(state, {"curtain.cloth.rows=100", "curtain.cloth.cols=100"}, 120);
+    curtainStep(state, {"curtain.cloth.rows=100", "curtain.cloth.cols=100"}, 120, true, int(state.range(0)));
 }
-BENCHMARK(BM_CurtainImplicit100)->Unit(benchmark::kMillisecond)->Iterations(30);
+BENCHMARK(BM_CurtainImplicit100)->Unit(benchmark::kMillisecond)->Iterations(30)->Arg(1)->Arg(2);
 
 // symplectic Euler needs about 47 substeps per 60 fps frame on this cloth (BASELINES.md): one such step
 void BM_CurtainSymplectic35(benchmark::State& state) {

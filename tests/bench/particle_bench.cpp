@@ -4,6 +4,7 @@
 //   build/tests/bench/tumble_bench --benchmark_filter=Million --benchmark_repetitions=5
 
 #include "components/particles.h"
+#include "engine/parallel.h"
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/particle_system.h"
@@ -62,8 +63,9 @@ void advancePlain(ParticlePool& p, const Vec3& g, float drag, float dt) {
     }
 }
 
-void runMillion(benchmark::State& state, bool plain) {
+void runMillion(benchmark::State& state, bool plain, int threads = 1) {
     MillionScene s = steadyMillion();
+    WorkerPool pool(threads);
     StepContext ctx;
     ctx.dt = s.sim->scene().dt;
     const Vec3 g{0.0, -9.81, 0.0};
@@ -74,17 +76,18 @@ void runMillion(benchmark::State& state, bool plain) {
         if (plain) {
             advancePlain(s.emitter->pool, g, drag, static_cast<float>(ctx.dt));
         } else {
-            advanceParticles(s.emitter->pool, g, drag, static_cast<float>(ctx.dt));
+            advanceParticles(s.emitter->pool, g, drag, static_cast<float>(ctx.dt), pool);
         }
         benchmark::ClobberMemory();
     }
     state.counters["live"] = static_cast<double>(s.emitter->pool.count);
 }
 
+// the argument is the thread count
 void BM_MillionParticles(benchmark::State& state) {
-    runMillion(state, false);
+    runMillion(state, false, int(state.range(0)));
 }
-BENCHMARK(BM_MillionParticles)->Unit(benchmark::kMillisecond)->Iterations(300);
+BENCHMARK(BM_MillionParticles)->Unit(benchmark::kMillisecond)->Iterations(300)->Arg(1)->Arg(2);
 
 void BM_MillionParticlesPlainLoop(benchmark::State& state) {
     runMillion(state, true);

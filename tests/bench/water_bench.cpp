@@ -2,6 +2,7 @@
 // as the water system takes it, after a disturbance has set the whole surface moving.
 //   build/tests/bench/tumble_bench --benchmark_filter=Water --benchmark_repetitions=5
 
+#include "engine/parallel.h"
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/water_system.h"
@@ -35,14 +36,17 @@ amount = 0.1
     for (int i = 0; i < 60; ++i) {
         sim.runFrame();
     }
+    WorkerPool pool(int(state.range(0)));
     StepContext ctx;
     ctx.dt = sim.scene().dt;
+    ctx.pool = &pool;
     for (auto _ : state) {
         stepWater(sim.world(), ctx);
     }
     state.counters["nodes"] = 256.0 * 256.0;
 }
-BENCHMARK(BM_Water256Step)->Unit(benchmark::kMillisecond);
+// the argument is the thread count
+BENCHMARK(BM_Water256Step)->Unit(benchmark::kMillisecond)->Arg(1)->Arg(2);
 
 } // namespace
 } // namespace tumble
