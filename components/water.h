@@ -30,6 +30,7 @@ struct Water {
     std::vector<double> v;         ///< m/s, dh/dt
     std::vector<double> occupied;  ///< m, per node: the submerged length of bodies there, last step
     std::vector<double> occupying; ///< scratch: the same this step (kept to spare an allocation a step)
+    bool anyOccupied = false;      ///< scratch: whether `occupied` holds a body's share anywhere
     std::uint32_t substeps = 1;    ///< wave steps per fixed step (more when dt breaks the CFL limit)
 
     double dx() const { return sizeX / double(nx - 1); }

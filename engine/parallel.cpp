@@ -23,7 +23,7 @@ thread_local int t_threadIndex = 0;
 /// How long an idle worker (or a waiting caller) spins before it sleeps (or yields): long enough to span
 /// the gap between two fork-joins of one conjugate-gradient solve, short enough not to burn a core
 /// between frames.
-constexpr std::chrono::microseconds kSpin{50};
+constexpr std::chrono::microseconds kSpin{200};
 
 void relax() {
 #if defined(__x86_64__) || defined(_M_X64)

@@ -2,6 +2,7 @@
 
 #include "components/particles.h"
 #include "components/spring_network.h"
+#include "engine/parallel.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
 
@@ -222,7 +223,9 @@ void collideSprings(World& world, const StepContext&) {
     });
 }
 
-void collideParticles(World& world, const StepContext&) {
+/// Particles against the bodies: each particle alone (they carry no mass, so no body feels them), so
+/// chunks of particles share out over the pool's threads with the same bits.
+void collideParticles(World& world, const StepContext& ctx) {
     const Pool<RigidBody>* bodies = world.findPool<RigidBody>();
     if (!bodies || bodies->size() == 0) {
         return;
@@ -232,7 +235,7 @@ void collideParticles(World& world, const StepContext&) {
             return;
         }
         ParticlePool& p = e.pool;
-        for (std::uint32_t i = 0; i < p.count; ++i) {
+        poolOr(ctx.pool).forEach(p.count, 4096, [&](std::size_t i) {
             Vec3 x{p.px[i], p.py[i], p.pz[i]};
             Vec3 v{p.vx[i], p.vy[i], p.vz[i]};
             // a few passes, so that a particle wedged between two bodies ends up outside both
@@ -268,7 +271,7 @@ void collideParticles(World& world, const StepContext&) {
                 }
             }
             if (!touched) {
-                continue;
+                return;
             }
             // stored in float, the point may round a hair inside a surface: nudge it out along the normals,
             // by steps that start near a float's resolution at that distance from the origin and double
@@ -293,7 +296,7 @@ void collideParticles(World& world, const StepContext&) {
             p.vx[i] = float(v.x);
             p.vy[i] = float(v.y);
             p.vz[i] = float(v.z);
-        }
+        });
     });
 }
 

@@ -234,6 +234,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     std::vector<double>& now = w.occupying;
     now.assign(w.h.size(), 0.0);
     const double area = w.dx() * w.dz();
+    bool touched = false; // whether any body reaches into the water this step
     world.view<RigidBody>().each([&](Entity, RigidBody& b) {
         if (!b.dynamic() || b.frozen) {
             return;
@@ -265,6 +266,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                     continue;
                 }
                 now[n] += under * cover;
+                touched = true;
                 volume += under * cover * area;
                 centre += Vec3{w.nodeX(i), bottom + 0.5 * under, w.nodeZ(k)} * (under * cover * area);
             }
@@ -289,6 +291,10 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     // everywhere else by as much in all (and flows back as the body rises): the volume is kept, and the dent
     // under the body makes the waves. (Put into the ring of nodes around the body instead, a sinking crate
     // raised spikes there that fed back into its buoyancy and grew without bound.)
+    if (!touched && !w.anyOccupied) {
+        return; // no body in the water, now or last step: nothing moves (the pass below would add zeros)
+    }
+    w.anyOccupied = touched;
     double moved = 0.0;
     std::size_t free = 0;
     for (std::size_t n = 0; n < w.h.size(); ++n) {
