@@ -10,6 +10,7 @@
 #include "engine/parallel.h"
 #include "engine/render_output.h"
 #include "engine/run_report.h"
+#include "engine/simd.h"
 #include "engine/simulation.h"
 
 #include <nlohmann/json.hpp>
@@ -25,6 +26,9 @@ namespace tumble {
 namespace fs = std::filesystem;
 
 int threadsFor(const RunOptions& o) {
+    if (const char* error = simdEnvironmentError(); *error) {
+        throw ScenarioError("environment", 0, 0, error);
+    }
     if (o.threads) {
         return *o.threads;
     }
