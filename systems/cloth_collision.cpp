@@ -3,6 +3,7 @@
 #include "components/rigid_body.h"
 #include "components/spring_network.h"
 #include "engine/name.h"
+#include "engine/parallel.h"
 #include "engine/profiler.h"
 #include "engine/run_report.h"
 #include "systems/ccd.h"
@@ -81,6 +82,13 @@ struct Constraint {
 
 } // namespace
 
+/// The candidates one chunk of a parallel gathering found, and its query scratch.
+struct Found {
+    std::vector<VertexTriangle> vt;
+    std::vector<EdgeEdge> ee;
+    std::vector<std::uint32_t> near;
+};
+
 /// The per-step arrays, kept from step to step so that a step allocates nothing once they have grown.
 struct ClothScratch {
     std::vector<Mesh> meshes;
@@ -116,7 +124,10 @@ struct ClothScratch {
     std::vector<Constraint> hits;                 ///< contacts found by a collecting pass
     std::vector<std::uint32_t> nearVt, nearEe;    ///< candidates within twice the thickness (proximity)
     std::vector<std::uint8_t> moved, movedBefore; ///< per vertex: moved during this continuous pass, the last
-    bool testAll = true;                          ///< the next continuous pass tests every candidate
+    std::vector<std::uint8_t> touched; ///< per vertex: x written by a response in this continuous pass
+    std::vector<Found> chunkFound;     ///< per chunk of a parallel gathering (engine/parallel.h)
+    std::vector<std::uint8_t> maybe;   ///< per candidate of a continuous pass: detected ahead within reach
+    bool testAll = true;               ///< the next continuous pass tests every candidate
     std::vector<std::uint32_t> members;
     std::vector<std::uint8_t> joined; ///< per vertex: in an impact zone
     /// pairs within one cloth closer than its thickness at rest
@@ -290,8 +301,15 @@ public:
         const Vec3 j = dq * (1.0 / m);
         for (int k = 0; k < 4; ++k) {
             field[st.i[k]] += j * (st.w[k] * inv[k]);
-            if (&field == &m_s.x && inv[k] > 0.0) {
-                m_s.moved[st.i[k]] = 1;
+            if (&field == &m_s.x) {
+                if (inv[k] > 0.0) {
+                    m_s.moved[st.i[k]] = 1;
+                }
+                // written, if only by adding zero (which can turn -0 into +0): a continuous pass's
+                // detection run ahead no longer holds for this mass's pairs
+                if (!m_s.touched.empty()) {
+                    m_s.touched[st.i[k]] = 1;
+                }
             }
         }
         return true;
@@ -346,11 +364,16 @@ public:
         m_s.ee.clear();
         m_s.pairs.clear();
         m_s.tree.selfPairs(m_s.pairs);
-        for (const auto& [i, j] : m_s.pairs) {
-            if (!shareVertex(m_s.tris[i], m_s.tris[j])) {
-                addTrianglePair(i, j, false);
+        // the pairs of triangles in chunks on the pool's threads, each chunk's candidates appended in
+        // chunk order: the list of a serial pass, in its order
+        forChunksInOrder(m_s.pairs.size(), [&](std::size_t first, std::size_t end, Found& out) {
+            for (std::size_t k = first; k < end; ++k) {
+                const auto& [i, j] = m_s.pairs[k];
+                if (!shareVertex(m_s.tris[i], m_s.tris[j])) {
+                    addTrianglePair(i, j, false, out);
+                }
             }
-        }
+        });
         addRingPairs(false);
         // in the tree's order (fixed by the tree, so the same every run): sorting them into index order cost
         // a tenth of the pile demo's whole run, and the fail-safe no longer depends on the order to settle
@@ -376,20 +399,43 @@ public:
             const Triangle& tri = m_s.tris[t];
             marked[t] = stale[tri[0]] || stale[tri[1]] || stale[tri[2]];
         }
-        for (std::uint32_t ta = 0; ta < m_s.tris.size(); ++ta) {
-            if (!marked[ta]) {
-                continue;
-            }
-            m_s.near.clear();
-            m_s.tree.overlapping(m_s.boxes[ta], m_s.near);
-            for (std::uint32_t tb : m_s.near) {
-                // a pair of two marked triangles is found from both: taken from the lower
-                if (tb != ta && !(marked[tb] && tb < ta) && !shareVertex(m_s.tris[ta], m_s.tris[tb])) {
-                    addTrianglePair(ta, tb, true);
+        forChunksInOrder(m_s.tris.size(), [&](std::size_t first, std::size_t end, Found& out) {
+            for (std::size_t ta = first; ta < end; ++ta) {
+                if (!marked[ta]) {
+                    continue;
+                }
+                out.near.clear();
+                m_s.tree.overlapping(m_s.boxes[ta], out.near);
+                for (std::uint32_t tb : out.near) {
+                    // a pair of two marked triangles is found from both: taken from the lower
+                    if (tb != ta && !(marked[tb] && tb < ta) && !shareVertex(m_s.tris[ta], m_s.tris[tb])) {
+                        addTrianglePair(std::uint32_t(ta), tb, true, out);
+                    }
                 }
             }
-        }
+        });
         addRingPairs(true);
+    }
+
+    /// Runs body(first, end, found) over chunks of [0, n) on the pool's threads, each chunk collecting its
+    /// candidates in its own lists, then appends the lists to m_s.vt and m_s.ee in chunk order.
+    template <class Body>
+    void forChunksInOrder(std::size_t n, Body&& body) {
+        constexpr std::size_t kGrain = 512;
+        const std::size_t chunks = WorkerPool::chunkCount(n, kGrain);
+        if (m_s.chunkFound.size() < chunks) {
+            m_s.chunkFound.resize(chunks);
+        }
+        poolOr(m_ctx.pool).forChunks(n, kGrain, [&](std::size_t c, std::size_t first, std::size_t end) {
+            Found& out = m_s.chunkFound[c];
+            out.vt.clear();
+            out.ee.clear();
+            body(first, end, out);
+        });
+        for (std::size_t c = 0; c < chunks; ++c) {
+            m_s.vt.insert(m_s.vt.end(), m_s.chunkFound[c].vt.begin(), m_s.chunkFound[c].vt.end());
+            m_s.ee.insert(m_s.ee.end(), m_s.chunkFound[c].ee.begin(), m_s.chunkFound[c].ee.end());
+        }
     }
 
     /// The masses that have moved farther than their margin from where their pairs were gathered, at either
@@ -533,16 +579,41 @@ public:
         }
         m_s.hits.clear();
         const auto& mv = m_s.movedBefore;
-        int found = 0;
-        for (const VertexTriangle& c : m_s.vt) {
-            const Triangle& tri = m_s.tris[c.t];
-            if ((all || mv[c.p] || mv[tri[0]] || mv[tri[1]] || mv[tri[2]]) && !tangledPair(c.p, tri)) {
-                found += test({c.p, tri[0], tri[1], tri[2]}, true, respond);
+        // which candidates this pass tests (fixed for the pass: the marks and flags it reads do not change)
+        const std::size_t vtCount = m_s.vt.size(), count = vtCount + m_s.ee.size();
+        auto candidate = [&](std::size_t k, std::array<std::uint32_t, 4>& idx) {
+            if (k < vtCount) {
+                const VertexTriangle& c = m_s.vt[k];
+                const Triangle& tri = m_s.tris[c.t];
+                idx = {c.p, tri[0], tri[1], tri[2]};
+                return (all || mv[c.p] || mv[tri[0]] || mv[tri[1]] || mv[tri[2]]) && !tangledPair(c.p, tri);
             }
-        }
-        for (const EdgeEdge& c : m_s.ee) {
-            if ((all || mv[c.a0] || mv[c.a1] || mv[c.b0] || mv[c.b1]) && !tangledPair(c)) {
-                found += test({c.a0, c.a1, c.b0, c.b1}, false, respond);
+            const EdgeEdge& c = m_s.ee[k - vtCount];
+            idx = {c.a0, c.a1, c.b0, c.b1};
+            return (all || mv[c.a0] || mv[c.a1] || mv[c.b0] || mv[c.b1]) && !tangledPair(c);
+        };
+        // Gauss-Seidel, with the detection run ahead on the pool's threads: first every candidate's
+        // `detect` against where the pass begins, at once; then, in candidate order, a candidate whose masses
+        // no response of this pass has moved keeps that answer (it would read the same positions), and
+        // the rest are tested again as they come. Exactly the serial pass's work, and so its bits.
+        m_s.maybe.assign(count, 0);
+        m_s.touched.assign(m_s.x.size(), 0);
+        poolOr(m_ctx.pool).forEach(count, 256, [&](std::size_t k) {
+            std::array<std::uint32_t, 4> idx;
+            Vec3 s[4], e[4];
+            double h = 0.0;
+            CcdResult r;
+            m_s.maybe[k] = candidate(k, idx) && detect(idx, k < vtCount, s, e, h, r);
+        });
+        int found = 0;
+        for (std::size_t k = 0; k < count; ++k) {
+            std::array<std::uint32_t, 4> idx;
+            if (!candidate(k, idx)) {
+                continue;
+            }
+            const auto& t = m_s.touched;
+            if (m_s.maybe[k] || t[idx[0]] || t[idx[1]] || t[idx[2]] || t[idx[3]]) {
+                found += test(idx, k < vtCount, respond);
             }
         }
         return found;
@@ -766,9 +837,22 @@ private:
 
     /// The continuous test of one candidate over the step; 1 if it found a contact.
     int test(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle, bool respond) {
-        const double h = thickness(idx[0], idx[2]);
-        double reach = kDetectFraction * h;
         Vec3 s[4], e[4];
+        double h = 0.0;
+        CcdResult r;
+        if (!detect(idx, vertexTriangle, s, e, h, r)) {
+            return 0;
+        }
+        return respondTo(idx, vertexTriangle, respond, s, e, h, r);
+    }
+
+    /// The part of `test` that only reads where the pair's masses begin and end the step (x0, x): whether
+    /// their paths come within reach (r), with the paths (s, e) and the thickness (h). False means `test`
+    /// returns 0 and changes nothing, which lets threads run it for many candidates at once.
+    bool detect(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle, Vec3 s[4], Vec3 e[4], double& h,
+                CcdResult& r) const {
+        h = thickness(idx[0], idx[2]);
+        double reach = kDetectFraction * h;
         Aabb a, b;
         for (int k = 0; k < 4; ++k) {
             s[k] = m_s.x0[idx[k]];
@@ -779,7 +863,7 @@ private:
         }
         a.inflate(reach);
         if (!a.overlaps(b)) {
-            return 0;
+            return false;
         }
         // the distance of the pair moves no faster than its points move relative to each other: with M
         // the largest such motion over the step, it is at least max(d0 - M t, d1 - M (1 - t)) at time t,
@@ -791,23 +875,26 @@ private:
             // however close it began (a pair frozen where it began touching would otherwise be found again
             // and again)
             if (!(motion > 0.0)) {
-                return 0;
+                return false;
             }
             const double d0 = distance(s, vertexTriangle);
             if (d0 - motion > reach) {
-                return 0;
+                return false;
             }
             // a pair that begins closer than the reach is in contact from the start; what matters is whether
             // it comes closer still: half as close as it began (touching, whether it passes through)
             reach = std::min(reach, 0.5 * d0);
             if (0.5 * (d0 + distance(e, vertexTriangle) - motion) > reach) {
-                return 0;
+                return false;
             }
         }
-        const CcdResult r = vertexTriangle ? vertexTriangleCcd(s, e, reach) : edgeEdgeCcd(s, e, reach);
-        if (!r.hit) {
-            return 0;
-        }
+        r = vertexTriangle ? vertexTriangleCcd(s, e, reach) : edgeEdgeCcd(s, e, reach);
+        return r.hit;
+    }
+
+    /// The rest of `test` for a pair `detect` found within reach: the contact, stopped (respond) or kept.
+    int respondTo(const std::array<std::uint32_t, 4>& idx, bool vertexTriangle, bool respond, const Vec3 s[4],
+                  const Vec3 e[4], double h, const CcdResult& r) {
         // the stencil where they touch: the closest points at the time of contact
         Vec3 xt[4];
         for (int k = 0; k < 4; ++k) {
@@ -962,28 +1049,29 @@ private:
     }
 
     /// The primitive pairs of two triangles that are candidates (with `staleOnly`, those with a stale mass).
-    void addTrianglePair(std::uint32_t ta, std::uint32_t tb, bool staleOnly) {
+    void addTrianglePair(std::uint32_t ta, std::uint32_t tb, bool staleOnly, Found& out) const {
         forEachPrimitivePair(
             m_s, ta, tb,
             [&](std::uint32_t p, std::uint32_t t) {
-                considerVertexTriangle({p, t}, staleOnly);
+                considerVertexTriangle({p, t}, staleOnly, out.vt);
             },
-            [&](const EdgeEdge& c) { considerEdgeEdge(c, staleOnly); });
+            [&](const EdgeEdge& c) { considerEdgeEdge(c, staleOnly, out.ee); });
     }
 
     /// The primitive pairs of triangles that share a vertex (listed with the layout, m_s.ringVt and ringEe)
     /// that are candidates.
     void addRingPairs(bool staleOnly) {
         for (const VertexTriangle& c : m_s.ringVt) {
-            considerVertexTriangle(c, staleOnly);
+            considerVertexTriangle(c, staleOnly, m_s.vt);
         }
         for (const EdgeEdge& c : m_s.ringEe) {
-            considerEdgeEdge(c, staleOnly);
+            considerEdgeEdge(c, staleOnly, m_s.ee);
         }
     }
 
-    /// Adds the pair to the candidates unless it is far apart (or, with `staleOnly`, has no stale mass).
-    void considerVertexTriangle(VertexTriangle c, bool staleOnly) {
+    /// Adds the pair to the candidates (out) unless it is far apart (or, with `staleOnly`, has no stale
+    /// mass). Reads the step's state only, so threads may run it for different pairs at once.
+    void considerVertexTriangle(VertexTriangle c, bool staleOnly, std::vector<VertexTriangle>& out) const {
         const Triangle& b = m_s.tris[c.t];
         const auto& stale = m_s.staleMark;
         if ((staleOnly && !(stale[c.p] || stale[b[0]] || stale[b[1]] || stale[b[2]])) ||
@@ -991,16 +1079,16 @@ private:
             return;
         }
         c.restClose = restClose(c.p, c.t);
-        m_s.vt.push_back(c);
+        out.push_back(c);
     }
-    void considerEdgeEdge(EdgeEdge c, bool staleOnly) {
+    void considerEdgeEdge(EdgeEdge c, bool staleOnly, std::vector<EdgeEdge>& out) const {
         const auto& stale = m_s.staleMark;
         if ((staleOnly && !(stale[c.a0] || stale[c.a1] || stale[c.b0] || stale[c.b1])) ||
             !sweptOverlap({c.a0, c.a1}, {c.b0, c.b1}) || farApart({c.a0, c.a1, c.b0, c.b1}, false)) {
             return;
         }
         c.restClose = restClose(c.a0, c.a1, c.b0, c.b1);
-        m_s.ee.push_back(c);
+        out.push_back(c);
     }
 
     /// A pair that cannot come within its thickness in this step, nor while the list is kept: left out of
