@@ -19,7 +19,9 @@
 // exception of the lowest-numbered chunk that threw is rethrown, the same one at any thread count.
 //
 // Each worker takes, for every chunk, the floating-point mode (denormals flushed) and the running system
-// of the thread that asked, so the world's access check and the arithmetic are those of the caller.
+// of the thread that asked, so the world's access check and the arithmetic are those of the caller. A
+// chunk may read the world and write what its system declared, each chunk its own part; the system's
+// command queue is one per system, so structural changes (world.commands()) are made outside the loop.
 
 #include <array>
 #include <atomic>
