@@ -280,6 +280,9 @@ struct WorkerPool::TaskSet {
     std::unique_ptr<std::atomic<bool>[]> claimed;
     std::atomic<std::size_t> claimedCount{0};
     std::atomic<std::size_t> ended{0};
+    std::mutex errorMutex{};
+    std::exception_ptr error{};
+    std::size_t errorTask = std::numeric_limits<std::size_t>::max();
 
     /// The lowest-numbered task not yet claimed whose dependencies are done, claimed; count if none.
     std::size_t claimReady() {
@@ -317,7 +320,17 @@ struct WorkerPool::TaskSet {
                     t.pool->signal();
                 }
             } endGuard{*this};
-            (*task)(i);
+            try {
+                (*task)(i);
+            } catch (...) {
+                // kept, and the thread goes on with the other tasks: were it to leave, tasks could be left
+                // unclaimed with every thread gone. The lowest-numbered task's error is rethrown at the end
+                std::lock_guard lock(errorMutex);
+                if (i < errorTask) {
+                    errorTask = i;
+                    error = std::current_exception();
+                }
+            }
         }
     }
 };
@@ -344,6 +357,9 @@ void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_
     awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });
     waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
     retire(job);
+    if (tasks.error) {
+        std::rethrow_exception(tasks.error);
+    }
 }
 
 } // namespace tumble

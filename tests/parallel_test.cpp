@@ -277,6 +277,43 @@ TEST(Schedule, QueuedChangesOfSystemsSideBySideApplyInTableOrder) {
     }
 }
 
+TEST(Schedule, SystemsThatThrowSideBySideEndThePhaseWithTheFirstOnesError) {
+    // two systems side by side both throw (each waits for the other to start, so both run at once); the
+    // system after them must still be claimed (and skipped) rather than left waiting for threads that
+    // have gone: the phase ends, with the first system's error
+    WorkerPool pool(2);
+    Profiler prof;
+    Schedule s(prof);
+    std::atomic<int> started{0};
+    auto thrower = [&started](const char* what) {
+        return [&started, what](World&, const StepContext&) {
+            started.fetch_add(1);
+            const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+            while (started.load() < 2 && std::chrono::steady_clock::now() < until) {
+                std::this_thread::yield();
+            }
+            throw std::runtime_error(what);
+        };
+    };
+    bool lastRan = false;
+    s.add(Phase::Fixed, "first", thrower("first"), accessOf<Reads<>, Writes<A>>());
+    s.add(Phase::Fixed, "second", thrower("second"), accessOf<Reads<>, Writes<B>>());
+    s.add(
+        Phase::Fixed, "after", [&](World&, const StepContext&) { lastRan = true; },
+        accessOf<Reads<Declared>, Writes<>>());
+    World w;
+    StepContext ctx;
+    ctx.pool = &pool;
+    try {
+        s.run(Phase::Fixed, w, ctx);
+        FAIL() << "no error";
+    } catch (const std::runtime_error& e) {
+        EXPECT_STREQ(e.what(), "first");
+    }
+    EXPECT_EQ(started.load(), 2);
+    EXPECT_FALSE(lastRan) << "systems not started when one has thrown are skipped";
+}
+
 TEST(Schedule, TheCriticalPathIsTheLongestChainOfWaits) {
     // a (30 ms) and b (25 ms) side by side, c after a (10 ms): the path is a then c, 40 ms, whatever the
     // threads; on one thread the phase takes all 65
