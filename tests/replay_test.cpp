@@ -51,8 +51,8 @@ TEST(Replay, RecordedOnSixteenThreadsVerifiesOnOneThreads) {
     // frame's hash must match, as a replay from a 16-core machine must verify on a 2-core one
     const std::string scene = std::string(TUMBLE_SOURCE_DIR) + "/tests/data/every_kind.toml";
     const std::string path = test::tempPath("sixteen.tumble");
-    auto r = test::runTumble({"run", scene, "--frames", "60", "--no-render", "--threads", "16", "--record", path,
-                              "--out", test::tempPath("sixteen_out"), "--quiet"});
+    auto r = test::runTumble({"run", scene, "--frames", "60", "--no-render", "--threads", "16", "--record",
+                              path, "--out", test::tempPath("sixteen_out"), "--quiet"});
     ASSERT_EQ(r.exitCode, 0) << r.err;
     for (const char* threads : {"1", "3"}) {
         r = test::runTumble({"replay", path, "--verify", "--no-render", "--threads", threads, "--out",
