@@ -1,5 +1,7 @@
 #include "systems/block_sparse.h"
 
+#include "systems/block_kernels.h"
+
 #include <algorithm>
 #include <stdexcept>
 
@@ -81,19 +83,7 @@ void BlockMatrix<S>::setZero() {
 template <class S>
 void BlockMatrix<S>::multiply(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y) const {
     y.resize(n);
-    multiplyRows(x, y, 0, n);
-}
-
-template <class S>
-void BlockMatrix<S>::multiplyRows(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y,
-                                  std::uint32_t first, std::uint32_t end) const {
-    for (std::uint32_t i = first; i < end; ++i) {
-        Vec3T<S> sum;
-        for (std::uint32_t b = rowStart[i]; b < rowStart[std::size_t(i) + 1]; ++b) {
-            sum += symmetricTimes(val[b], x[col[b]]);
-        }
-        y[i] = sum;
-    }
+    kernels::multiplyRows(*this, x.data(), y.data(), 0, n);
 }
 
 template struct Mat3T<float>;

@@ -172,11 +172,9 @@ struct BlockMatrix {
     /// Index of block (i, j); the block must be in the pattern.
     std::uint32_t find(std::uint32_t i, std::uint32_t j) const;
     void setZero();
-    /// y = A x, for a matrix whose blocks are all symmetric (the solver's are)
+    /// y = A x, for a matrix whose blocks are all symmetric (the solver's are); a range of rows:
+    /// kernels::multiplyRows (block_kernels.h)
     void multiply(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y) const;
-    /// Rows [first, end) of y = A x (y already sized): rows are independent, so threads may share them.
-    void multiplyRows(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y, std::uint32_t first,
-                      std::uint32_t end) const;
 };
 
 extern template struct Mat3T<float>;

@@ -1,5 +1,7 @@
 #include "systems/linear_solver.h"
 
+#include "systems/block_kernels.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -81,10 +83,10 @@ std::uint32_t matchPairs(const BlockMatrix<S>& pattern, const std::vector<double
     return count;
 }
 
-/// The pattern of the matrix coarsened by a grouping, and where each fine block sums into.
+/// The pattern of the matrix coarsened by a grouping.
 template <class S>
 BlockMatrix<S> coarsePattern(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& group,
-                             std::uint32_t count, std::vector<std::uint32_t>& blockSlot) {
+                             std::uint32_t count) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     pairs.reserve(fine.col.size());
     for (std::uint32_t i = 0; i < fine.n; ++i) {
@@ -92,31 +94,55 @@ BlockMatrix<S> coarsePattern(const BlockMatrix<S>& fine, const std::vector<std::
             pairs.emplace_back(group[i], group[fine.col[b]]);
         }
     }
-    BlockMatrix<S> coarse = BlockMatrix<S>::fromPairs(count, std::move(pairs));
-    blockSlot.resize(fine.col.size());
-    for (std::uint32_t i = 0; i < fine.n; ++i) {
-        for (std::uint32_t b = fine.rowStart[i]; b < fine.rowStart[std::size_t(i) + 1]; ++b) {
-            blockSlot[b] = coarse.find(group[i], group[fine.col[b]]);
-        }
-    }
-    return coarse;
+    return BlockMatrix<S>::fromPairs(count, std::move(pairs));
 }
 
-/// Coarse blocks as sums of fine ones, accumulated in double: where couplings cancel (a free body's
-/// springs), float sums would lose what is left.
+/// Lists in compressed-row form from a map item -> list: list l gets its items in ascending order.
+void invert(const std::vector<std::uint32_t>& listOf, std::uint32_t lists, std::vector<std::uint32_t>& start,
+            std::vector<std::uint32_t>& items) {
+    start.assign(std::size_t(lists) + 1, 0);
+    for (std::uint32_t l : listOf) {
+        ++start[std::size_t(l) + 1];
+    }
+    for (std::uint32_t l = 0; l < lists; ++l) {
+        start[std::size_t(l) + 1] += start[l];
+    }
+    items.resize(listOf.size());
+    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    for (std::uint32_t k = 0; k < listOf.size(); ++k) {
+        items[next[listOf[k]]++] = k;
+    }
+}
+
+/// Coarse blocks as sums of fine ones, accumulated in double (where couplings cancel, a free body's springs,
+/// float sums would lose what is left): each coarse block gathers its fine blocks in ascending order, the
+/// additions a scatter in fine order would make, so threads may share out the coarse blocks.
 template <class S>
-void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& blockSlot, BlockMatrix<S>& coarse,
-              std::vector<Mat3>& sums) {
-    sums.assign(coarse.val.size(), Mat3{});
-    for (std::size_t b = 0; b < fine.val.size(); ++b) {
-        Mat3& to = sums[blockSlot[b]];
-        for (std::size_t e = 0; e < 9; ++e) {
-            to.m[e] += double(fine.val[b].m[e]);
+void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& sourceStart,
+              const std::vector<std::uint32_t>& sources, BlockMatrix<S>& coarse, WorkerPool& pool) {
+    pool.forEach(coarse.val.size(), 4096, [&](std::size_t c) {
+        Mat3 sum;
+        for (std::uint32_t k = sourceStart[c]; k < sourceStart[c + 1]; ++k) {
+            const Mat3T<S>& from = fine.val[sources[k]];
+            for (std::size_t e = 0; e < 9; ++e) {
+                sum.m[e] += double(from.m[e]);
+            }
+        }
+        coarse.val[c] = sum.template cast<S>();
+    });
+}
+
+/// Where each fine block of a grouping sums into, as lists per coarse block.
+template <class S>
+void findSources(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& group, BlockMatrix<S>& coarse,
+                 std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& sources) {
+    std::vector<std::uint32_t> slot(fine.col.size());
+    for (std::uint32_t i = 0; i < fine.n; ++i) {
+        for (std::uint32_t b = fine.rowStart[i]; b < fine.rowStart[std::size_t(i) + 1]; ++b) {
+            slot[b] = coarse.find(group[i], group[fine.col[b]]);
         }
     }
-    for (std::size_t b = 0; b < sums.size(); ++b) {
-        coarse.val[b] = sums[b].template cast<S>();
-    }
+    invert(slot, std::uint32_t(coarse.val.size()), start, sources);
 }
 
 template <class S>
@@ -157,7 +183,7 @@ void multiplyShared(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& x, std
                     WorkerPool& pool) {
     y.resize(a.n);
     pool.forChunks(a.n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
-        a.multiplyRows(x, y, std::uint32_t(first), std::uint32_t(end));
+        kernels::multiplyRows(a, x.data(), y.data(), std::uint32_t(first), std::uint32_t(end));
     });
 }
 
@@ -211,10 +237,11 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
     const BlockMatrix<S>* current = &fine;
     while (current->n > kCoarsestRows && m_levels.size() < kMaxLevels) {
         // double pairwise matching: pairs of rows, then pairs of those pairs
-        std::vector<std::uint32_t> first, second, middleSlots;
+        std::vector<std::uint32_t> first, second, middleStart, middleSources;
         const std::uint32_t n1 = matchPairs(*current, strengths(*current), first);
-        BlockMatrix<S> middle = coarsePattern(*current, first, n1, middleSlots);
-        galerkin(*current, middleSlots, middle, m_sums);
+        BlockMatrix<S> middle = coarsePattern(*current, first, n1);
+        findSources(*current, first, middle, middleStart, middleSources);
+        galerkin(*current, middleStart, middleSources, middle, serialPool());
         const std::uint32_t n2 = matchPairs(middle, strengths(middle), second);
         if (n2 * 5 > current->n * 4) {
             break; // coarsening stalled (a graph with few couplings): solve what is left directly
@@ -224,8 +251,10 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
         for (std::uint32_t i = 0; i < current->n; ++i) {
             level.group[i] = second[first[i]];
         }
-        level.a = coarsePattern(*current, level.group, n2, level.blockSlot);
-        galerkin(*current, level.blockSlot, level.a, m_sums);
+        level.a = coarsePattern(*current, level.group, n2);
+        findSources(*current, level.group, level.a, level.sources.start, level.sources.items);
+        invert(level.group, n2, level.members.start, level.members.items);
+        galerkin(*current, level.sources.start, level.sources.items, level.a, serialPool());
         m_levels.push_back(std::move(level));
         current = &m_levels.back().a;
     }
@@ -248,7 +277,7 @@ void AggregationMultigrid<S>::update(const BlockMatrix<S>& a, WorkerPool& pool) 
     } else {
         const BlockMatrix<S>* finer = &a;
         for (Level& level : m_levels) {
-            galerkin(*finer, level.blockSlot, level.a, m_sums);
+            galerkin(*finer, level.sources.start, level.sources.items, level.a, pool);
             finer = &level.a;
         }
     }
@@ -345,37 +374,12 @@ void AggregationMultigrid<S>::solveCoarsest(const std::vector<Vec>& b, std::vect
 }
 
 template <class S>
-void AggregationMultigrid<S>::smoothBackward(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
-                                             const std::vector<Vec>& b, std::vector<Vec>& x) const {
-    for (std::uint32_t i = a.n; i-- > 0;) {
-        Vec s = b[i];
-        // the blocks left and right of the diagonal (columns are sorted, so no test inside the loops)
-        for (std::uint32_t bl = a.rowStart[i]; bl < a.diag[i]; ++bl) {
-            s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
-        }
-        for (std::uint32_t bl = a.diag[i] + 1; bl < a.rowStart[std::size_t(i) + 1]; ++bl) {
-            s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
-        }
-        x[i] = symmetricTimes(dinv[i], s);
-    }
-}
-
-template <class S>
 void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
                                             const Colouring& colours, bool forward, const std::vector<Vec>& b,
                                             std::vector<Vec>& x, WorkerPool& pool) const {
     // colour after colour, each colour's blocks at once, rows in order inside a block (forward; backward
     // is the exact reverse order, so the V-cycle stays symmetric). A block reads other blocks of its
     // colour nowhere, so any thread count gives the same bits.
-    auto smoothRow = [&](std::uint32_t i) {
-        Vec s = b[i];
-        for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[std::size_t(i) + 1]; ++bl) {
-            if (bl != a.diag[i]) {
-                s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
-            }
-        }
-        x[i] = symmetricTimes(dinv[i], s);
-    };
     const std::size_t count = colours.start.size() - 1;
     for (std::size_t k = 0; k < count; ++k) {
         const std::size_t c = forward ? k : count - 1 - k;
@@ -383,15 +387,7 @@ void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::
         pool.forEach(colours.start[c + 1] - first, 1, [&](std::size_t at) {
             const std::uint32_t block = colours.blocks[first + at];
             const std::uint32_t begin = block * kSmoothBlock, end = std::min(a.n, begin + kSmoothBlock);
-            if (forward) {
-                for (std::uint32_t i = begin; i < end; ++i) {
-                    smoothRow(i);
-                }
-            } else {
-                for (std::uint32_t i = end; i-- > begin;) {
-                    smoothRow(i);
-                }
-            }
+            kernels::smoothRows(a, dinv.data(), b.data(), x.data(), begin, end, forward);
         });
     }
 }
@@ -407,55 +403,48 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     const std::vector<Mat>& dinv = level == 0 ? m_fineDiagInverse : m_levels[level - 1].diagInverse;
     std::vector<Vec>& r = level == 0 ? m_fineResidual : m_levels[level - 1].r;
     Level& next = m_levels[level];
-    if (!m_colours[level].start.empty()) {
-        // forward by colour from x = 0, the residual b - A x by rows, restrict, correct on the coarser
-        // level, prolong, and backward by colour
-        x.assign(a.n, Vec{});
+    x.resize(a.n);
+    r.resize(a.n);
+    auto rowChunks = [&](auto&& rows) {
+        pool.forChunks(a.n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
+            rows(std::uint32_t(first), std::uint32_t(end));
+        });
+    };
+    const bool coloured = !m_colours[level].start.empty();
+    if (coloured) {
+        // forward by colour from x = 0, then the residual b - A x
+        std::fill(x.begin(), x.end(), Vec{});
         smoothColours(a, dinv, m_colours[level], true, b, x, pool);
-        r.resize(a.n);
-        pool.forChunks(a.n, 2048, [&](std::size_t, std::size_t first, std::size_t end) {
-            a.multiplyRows(x, r, std::uint32_t(first), std::uint32_t(end));
-            for (std::size_t i = first; i < end; ++i) {
+        rowChunks([&](std::uint32_t first, std::uint32_t end) {
+            kernels::multiplyRows(a, x.data(), r.data(), first, end);
+            for (std::uint32_t i = first; i < end; ++i) {
                 r[i] = b[i] - r[i];
             }
         });
-        next.b.assign(next.a.n, Vec{});
-        for (std::uint32_t i = 0; i < a.n; ++i) {
-            next.b[next.group[i]] += r[i];
-        }
-        cycle(level + 1, next.b, next.x, pool);
-        pool.forEach(a.n, 4096, [&](std::size_t i) { x[i] += next.x[next.group[i]]; });
-        smoothColours(a, dinv, m_colours[level], false, b, x, pool);
-        return;
+    } else {
+        // forward row after row from x = 0, then the residual (blocks right of the diagonal only)
+        kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), 0, a.n);
+        rowChunks([&](std::uint32_t first, std::uint32_t end) {
+            kernels::residualAfterForward(a, x.data(), r.data(), first, end);
+        });
     }
-
-    // forward Gauss-Seidel from x = 0 and the residual after it, in one pass over the lower blocks: row i
-    // sees only new values below it (s_i = b_i - sum_{j<i} A_ij x_j, x_i = D_i^-1 s_i), and since
-    // D_i x_i = s_i its residual is just -sum_{j>i} A_ij x_j, which later rows add as their x_j appear
-    x.resize(a.n);
-    r.assign(a.n, Vec{});
-    for (std::uint32_t i = 0; i < a.n; ++i) {
-        Vec s = b[i];
-        const std::uint32_t d = a.diag[i];
-        for (std::uint32_t bl = a.rowStart[i]; bl < d; ++bl) {
-            s -= symmetricTimes(a.val[bl], x[a.col[bl]]);
+    // restrict (each coarse row gathers its finer rows' residuals in ascending order), correct on the
+    // coarser level, prolong, and sweep backwards, so that the V-cycle stays symmetric
+    next.b.resize(next.a.n);
+    pool.forEach(next.a.n, kRows, [&](std::size_t c) {
+        Vec sum;
+        for (std::uint32_t k = next.members.start[c]; k < next.members.start[c + 1]; ++k) {
+            sum += r[next.members.items[k]];
         }
-        x[i] = symmetricTimes(dinv[i], s);
-        // x_i enters the residual of each earlier row j through A_ji = A_ij (every block is symmetric)
-        for (std::uint32_t bl = a.rowStart[i]; bl < d; ++bl) {
-            r[a.col[bl]] -= symmetricTimes(a.val[bl], x[i]);
-        }
-    }
-    // restrict, correct on the coarser level, prolong, and smooth backwards (the V-cycle stays symmetric)
-    next.b.assign(next.a.n, Vec{});
-    for (std::uint32_t i = 0; i < a.n; ++i) {
-        next.b[next.group[i]] += r[i];
-    }
+        next.b[c] = sum;
+    });
     cycle(level + 1, next.b, next.x, pool);
-    for (std::uint32_t i = 0; i < a.n; ++i) {
-        x[i] += next.x[next.group[i]];
+    pool.forEach(a.n, kRows, [&](std::size_t i) { x[i] += next.x[next.group[i]]; });
+    if (coloured) {
+        smoothColours(a, dinv, m_colours[level], false, b, x, pool);
+    } else {
+        kernels::smoothRows(a, dinv.data(), b.data(), x.data(), 0, a.n, false);
     }
-    smoothBackward(a, dinv, b, x);
 }
 
 template <class S>

@@ -1,0 +1,42 @@
+#pragma once
+// The row kernels of the implicit solver (linear_solver.h): products and Gauss-Seidel sweeps over the rows
+// of a 3x3-block matrix. They are most of an implicit step's time (70% of the curtain's), so the float
+// ones have an SSE2 and an AVX2 version, chosen at run time (engine/simd.h), that give the same bits.
+//
+// How the bits stay the same: a row's sum over its blocks is kept in two partial sums, the even-numbered
+// blocks of the row in one and the odd-numbered ones in the other, added at the end (even + odd). AVX2
+// holds the two partials in the two halves of one register and multiplies a pair of blocks at once; SSE2
+// holds them in two registers and multiplies one block at a time; every lane sees the same operations in
+// the same order (a block times a vector is (row0 x + row1 y) + row2 z, no fused multiply-add). The double
+// versions keep the same order in plain code.
+
+#include "systems/block_sparse.h"
+
+#include <cstdint>
+
+namespace tumble::kernels {
+
+/// y_i = sum_j A_ij x_j for the rows [first, end) (every block symmetric, as the solver's are).
+template <class S>
+void multiplyRows(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* y, std::uint32_t first,
+                  std::uint32_t end);
+
+/// Gauss-Seidel over the rows [first, end), in order (forward) or in reverse: x_i = D_i^-1 (b_i - sum_{j != i}
+/// A_ij x_j), each row seeing the rows updated before it. dinv holds the inverses of the diagonal blocks.
+template <class S>
+void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
+                std::uint32_t first, std::uint32_t end, bool forward);
+
+/// The first forward Gauss-Seidel sweep, from x = 0, over the rows [first, end): x_i = D_i^-1 (b_i - sum_{j<i}
+/// A_ij x_j) (the rows after i still hold zero, so only the blocks left of the diagonal count).
+template <class S>
+void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
+                         std::uint32_t first, std::uint32_t end);
+
+/// The residual b - A x after forwardRowsFromZero swept every row, for the rows [first, end): since D_i x_i
+/// = b_i - sum_{j<i} A_ij x_j, it is r_i = -sum_{j>i} A_ij x_j, the blocks right of the diagonal.
+template <class S>
+void residualAfterForward(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
+                          std::uint32_t end);
+
+} // namespace tumble::kernels
