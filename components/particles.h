@@ -1,7 +1,8 @@
 #pragma once
-// A particle emitter and the particles it has born. One entity holds the emitter's settings, its random
-// stream and its pool; the pool is structure-of-arrays (one float array per quantity), so the update loop
-// streams through packed floats, and a dead particle is swap-removed (the last one takes its place).
+// A particle emitter and the particles it has born. One entity holds the emitter's settings, the key of
+// its random draws and its pool; the pool is structure-of-arrays (one float array per quantity), so the
+// update loop streams through packed floats, and the dead leave holes that the survivors past the new end
+// fill, in order.
 //
 // Particles are light: float state, no mass of their own (forces act on them as on a 1 kg body), colour
 // and size derived from age over lifetime, so the pool holds nothing the renderer cannot compute.
@@ -25,8 +26,11 @@ struct ParticlePool {
     std::vector<float> age;        ///< s since birth
     std::vector<float> lifetime;   ///< s; the particle dies when age reaches it
     std::uint32_t count = 0;       ///< live particles (the arrays are sized to the emitter's capacity)
-    std::vector<std::uint32_t> deadGroups; ///< scratch of the update (not state): groups of four with a death
-    std::vector<std::uint32_t> deadCounts; ///< scratch: how many each chunk of the update listed
+    // scratch of the update (not state)
+    std::vector<std::uint32_t> deadGroups; ///< groups of four with a death, each chunk's in its own stretch
+    std::vector<std::uint32_t> deadCounts; ///< per chunk: how many groups it listed
+    std::vector<std::uint32_t> deaths;     ///< per chunk: how many of its particles died
+    std::vector<std::uint32_t> fillers;    ///< the survivors past the new end, which move into the holes
 };
 
 /// Settings of an emitter (read from the scenario; events may change `rate`).
@@ -50,12 +54,14 @@ struct EmitterDef {
     std::array<float, 2> size{0.05f, 0.05f};                 ///< m, at birth and at death
 };
 
-/// An emitter with its particles and its own random stream.
+/// An emitter with its particles. Its random draws are keyed, not drawn from one stream: particle n (the
+/// n-th born) takes its draws from a stream of its own, seeded from `seed` and n, so births can be made on
+/// any number of threads with the same bits.
 struct ParticleEmitter {
     EmitterDef def;
     Vec3 origin; ///< m, the entity's position
     ParticlePool pool;
-    Rng rng;                        ///< every random draw of this emitter, seeded from the scene seed
+    std::uint64_t seed = 0;         ///< the key of this emitter's draws, from the scene seed and its name
     std::uint64_t rateSteps = 0;    ///< fixed steps emitted at the current rate
     double rateCarry = 0.0;         ///< the fraction of a birth owed when the rate was last set
     std::uint64_t rateBorn = 0;     ///< particles born by the rate since the rate was last set

@@ -132,8 +132,8 @@ void smoothSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec
     }
 }
 
-void forwardSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b, Vec3T<float>* x,
-                 std::uint32_t first, std::uint32_t end) {
+void forwardSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b,
+                 Vec3T<float>* x, std::uint32_t first, std::uint32_t end) {
     for (std::uint32_t i = first; i < end; ++i) {
         const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, x, lowerBlocks(a, i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
@@ -143,7 +143,8 @@ void forwardSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Ve
 void residualSse2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* r, std::uint32_t first,
                   std::uint32_t end) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<float>(_mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumSse2(a, x, upperBlocks(a, i))), kKeepXyz));
+        r[i] = Vec3T<float>(
+            _mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumSse2(a, x, upperBlocks(a, i))), kKeepXyz));
     }
 }
 
@@ -166,7 +167,8 @@ TUMBLE_AVX2 inline __m256 pairTimes(const Mat3T<float>& p, const Mat3T<float>& q
     return _mm256_add_ps(r, _mm256_mul_ps(row2, _mm256_permute_ps(v, 0xaa)));
 }
 
-TUMBLE_AVX2 inline __m128 rowSumAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, const RowBlocks& row) {
+TUMBLE_AVX2 inline __m128 rowSumAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x,
+                                     const RowBlocks& row) {
     __m256 both = _mm256_setzero_ps();
     const std::uint32_t count = row.count();
     std::uint32_t k = 0;
@@ -211,7 +213,8 @@ TUMBLE_AVX2 void forwardAvx2(const BlockMatrix<float>& a, const Mat3T<float>* di
 TUMBLE_AVX2 void residualAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* r,
                               std::uint32_t first, std::uint32_t end) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<float>(_mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumAvx2(a, x, upperBlocks(a, i))), kKeepXyz));
+        r[i] = Vec3T<float>(
+            _mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumAvx2(a, x, upperBlocks(a, i))), kKeepXyz));
     }
 }
 
@@ -237,7 +240,8 @@ template <class S>
 void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                 std::uint32_t first, std::uint32_t end, bool forward) {
     if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? smoothAvx2(a, dinv, b, x, first, end, forward) : smoothSse2(a, dinv, b, x, first, end, forward);
+        useAvx2() ? smoothAvx2(a, dinv, b, x, first, end, forward)
+                  : smoothSse2(a, dinv, b, x, first, end, forward);
     } else {
         smoothPlain(a, dinv, b, x, first, end, forward);
     }
@@ -275,8 +279,8 @@ template void forwardRowsFromZero(const BlockMatrix<float>&, const Mat3T<float>*
                                   Vec3T<float>*, std::uint32_t, std::uint32_t);
 template void forwardRowsFromZero(const BlockMatrix<double>&, const Mat3T<double>*, const Vec3T<double>*,
                                   Vec3T<double>*, std::uint32_t, std::uint32_t);
-template void residualAfterForward(const BlockMatrix<float>&, const Vec3T<float>*, Vec3T<float>*, std::uint32_t,
-                                   std::uint32_t);
+template void residualAfterForward(const BlockMatrix<float>&, const Vec3T<float>*, Vec3T<float>*,
+                                   std::uint32_t, std::uint32_t);
 template void residualAfterForward(const BlockMatrix<double>&, const Vec3T<double>*, Vec3T<double>*,
                                    std::uint32_t, std::uint32_t);
 

@@ -21,14 +21,14 @@ template <class S>
 void multiplyRows(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* y, std::uint32_t first,
                   std::uint32_t end);
 
-/// Gauss-Seidel over the rows [first, end), in order (forward) or in reverse: x_i = D_i^-1 (b_i - sum_{j != i}
-/// A_ij x_j), each row seeing the rows updated before it. dinv holds the inverses of the diagonal blocks.
+/// Gauss-Seidel over the rows [first, end), in order (forward) or in reverse: x_i = D_i^-1 (b_i - sum_{j !=
+/// i} A_ij x_j), each row seeing the rows updated before it. dinv holds the inverses of the diagonal blocks.
 template <class S>
 void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                 std::uint32_t first, std::uint32_t end, bool forward);
 
-/// The first forward Gauss-Seidel sweep, from x = 0, over the rows [first, end): x_i = D_i^-1 (b_i - sum_{j<i}
-/// A_ij x_j) (the rows after i still hold zero, so only the blocks left of the diagonal count).
+/// The first forward Gauss-Seidel sweep, from x = 0, over the rows [first, end): x_i = D_i^-1 (b_i -
+/// sum_{j<i} A_ij x_j) (the rows after i still hold zero, so only the blocks left of the diagonal count).
 template <class S>
 void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                          std::uint32_t first, std::uint32_t end);

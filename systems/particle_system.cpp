@@ -39,6 +39,15 @@ void basis(const Vec3& d, Vec3& t1, Vec3& t2) {
     t2 = cross(d, t1);
 }
 
+/// The stream of the n-th particle an emitter gives birth to: a seed mixed from the emitter's key and n
+/// (splitmix64's finaliser), so that every birth has its own draws whichever thread makes it.
+Rng birthStream(std::uint64_t emitterSeed, std::uint64_t n) {
+    std::uint64_t z = emitterSeed + (n + 1) * 0x9e3779b97f4a7c15ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return Rng(z ^ (z >> 31));
+}
+
 /// A uniformly random point of the unit disc (rejection from the square: no trigonometry).
 void unitDisc(Rng& rng, double& a, double& b) {
     do {
@@ -117,7 +126,7 @@ void loadEmitter(TableReader& r, World& world, Entity entity, const SceneDef& sc
         }
     }
     e.origin = world.get<Transform>(entity).position;
-    e.rng = Rng(streamSeed(scene.seed, "emitter:" + world.get<Name>(entity).value));
+    e.seed = streamSeed(scene.seed, "emitter:" + world.get<Name>(entity).value);
     reserveParticles(e.pool, d.maxParticles);
     e.pendingBurst = d.burst;
     world.emplace<ParticleEmitter>(entity, std::move(e));
@@ -146,7 +155,7 @@ void hashEmitter(const ParticleEmitter& e, Hasher& h) {
     for (const std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
         h.bytes(a->data(), std::size_t(p.count) * sizeof(float));
     }
-    h.add(e.rng);
+    h.add(e.seed);
     h.add(e.def.rate);
     h.add(e.rateSteps);
     h.add(e.rateCarry);
@@ -195,68 +204,85 @@ void reserveParticles(ParticlePool& p, std::uint32_t capacity) {
         a->assign(capacity, 0.0f);
     }
     p.deadGroups.assign(capacity / 4 + 1, 0);
-    p.deadCounts.assign(std::max<std::size_t>(1, WorkerPool::chunkCount(capacity, kParticleGrain)), 0);
+    const std::size_t chunks = std::max<std::size_t>(1, WorkerPool::chunkCount(capacity, kParticleGrain));
+    p.deadCounts.assign(chunks, 0);
+    p.deaths.assign(chunks, 0);
+    // survivors past the new end: no more than the deaths, nor than what is left, so at most half
+    p.fillers.assign(capacity / 2 + 1, 0);
 }
 
-void spawnParticles(ParticleEmitter& e, std::uint64_t n) {
-    const EmitterDef& d = e.def;
-    ParticlePool& p = e.pool;
-    const auto capacity = static_cast<std::uint32_t>(p.px.size());
-    Vec3 t1, t2;
-    basis(d.direction, t1, t2);
-    const double cosSpread = std::cos(d.spreadDeg * std::numbers::pi / 180.0);
-    for (std::uint64_t k = 0; k < n; ++k) {
-        if (p.count == capacity) {
-            e.dropped += n - k;
-            return;
-        }
-        // where: the shape, around the emitter's position
-        Vec3 at = e.origin;
-        double a = 0.0, b = 0.0;
-        switch (d.shape) {
-        case EmitterShape::Point:
-            break;
-        case EmitterShape::Sphere: {
-            double c = 0.0;
-            do {
-                a = 2.0 * e.rng.uniform() - 1.0;
-                b = 2.0 * e.rng.uniform() - 1.0;
-                c = 2.0 * e.rng.uniform() - 1.0;
-            } while (a * a + b * b + c * c > 1.0);
-            at += Vec3{a, b, c} * d.radius;
-            break;
-        }
-        case EmitterShape::Disc:
-            unitDisc(e.rng, a, b);
-            at += (t1 * a + t2 * b) * d.radius;
-            break;
-        case EmitterShape::Box:
-            at += Vec3{d.halfExtents.x * (2.0 * e.rng.uniform() - 1.0),
-                       d.halfExtents.y * (2.0 * e.rng.uniform() - 1.0),
-                       d.halfExtents.z * (2.0 * e.rng.uniform() - 1.0)};
-            break;
-        }
-        // which way: uniform over the spherical cap of the cone (cos theta uniform), azimuth from the disc
-        const double z = 1.0 - e.rng.uniform() * (1.0 - cosSpread);
-        const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-        unitDisc(e.rng, a, b);
-        const double s = std::sqrt(a * a + b * b);
-        const double ca = s > 0.0 ? a / s : 1.0, sa = s > 0.0 ? b / s : 0.0;
-        const Vec3 dir = t1 * (r * ca) + t2 * (r * sa) + d.direction * z;
-        const double speed = e.rng.uniform(d.speed[0], d.speed[1]);
-        const double life = e.rng.uniform(d.lifetime[0], d.lifetime[1]);
+namespace {
 
-        const std::uint32_t i = p.count++;
-        p.px[i] = float(at.x);
-        p.py[i] = float(at.y);
-        p.pz[i] = float(at.z);
-        p.vx[i] = float(dir.x * speed);
-        p.vy[i] = float(dir.y * speed);
-        p.vz[i] = float(dir.z * speed);
-        p.age[i] = 0.0f;
-        p.lifetime[i] = float(life);
-        ++e.born;
+/// One birth: where on the emitter's shape, which way in its cone, how fast, how long it lives.
+void bear(const ParticleEmitter& e, const Vec3& t1, const Vec3& t2, double cosSpread, Rng& rng,
+          ParticlePool& p, std::uint32_t i) {
+    const EmitterDef& d = e.def;
+    Vec3 at = e.origin;
+    double a = 0.0, b = 0.0;
+    switch (d.shape) {
+    case EmitterShape::Point:
+        break;
+    case EmitterShape::Sphere: {
+        double c = 0.0;
+        do {
+            a = 2.0 * rng.uniform() - 1.0;
+            b = 2.0 * rng.uniform() - 1.0;
+            c = 2.0 * rng.uniform() - 1.0;
+        } while (a * a + b * b + c * c > 1.0);
+        at += Vec3{a, b, c} * d.radius;
+        break;
     }
+    case EmitterShape::Disc:
+        unitDisc(rng, a, b);
+        at += (t1 * a + t2 * b) * d.radius;
+        break;
+    case EmitterShape::Box:
+        at +=
+            Vec3{d.halfExtents.x * (2.0 * rng.uniform() - 1.0), d.halfExtents.y * (2.0 * rng.uniform() - 1.0),
+                 d.halfExtents.z * (2.0 * rng.uniform() - 1.0)};
+        break;
+    }
+    // which way: uniform over the spherical cap of the cone (cos theta uniform), azimuth from the disc
+    const double z = 1.0 - rng.uniform() * (1.0 - cosSpread);
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    unitDisc(rng, a, b);
+    const double s = std::sqrt(a * a + b * b);
+    const double ca = s > 0.0 ? a / s : 1.0, sa = s > 0.0 ? b / s : 0.0;
+    const Vec3 dir = t1 * (r * ca) + t2 * (r * sa) + d.direction * z;
+    const double speed = rng.uniform(d.speed[0], d.speed[1]);
+    const double life = rng.uniform(d.lifetime[0], d.lifetime[1]);
+    p.px[i] = float(at.x);
+    p.py[i] = float(at.y);
+    p.pz[i] = float(at.z);
+    p.vx[i] = float(dir.x * speed);
+    p.vy[i] = float(dir.y * speed);
+    p.vz[i] = float(dir.z * speed);
+    p.age[i] = 0.0f;
+    p.lifetime[i] = float(life);
+}
+
+/// Births per chunk of the parallel births (each about 0.2 us).
+constexpr std::size_t kBirthGrain = 1024;
+
+} // namespace
+
+void spawnParticles(ParticleEmitter& e, std::uint64_t n, WorkerPool& pool) {
+    ParticlePool& p = e.pool;
+    const auto room = static_cast<std::uint64_t>(p.px.size() - p.count);
+    if (n > room) {
+        e.dropped += n - room;
+        n = room;
+    }
+    Vec3 t1, t2;
+    basis(e.def.direction, t1, t2);
+    const double cosSpread = std::cos(e.def.spreadDeg * std::numbers::pi / 180.0);
+    const std::uint32_t first = p.count;
+    pool.forEach(n, kBirthGrain, [&](std::size_t k) {
+        Rng rng = birthStream(e.seed, e.born + k);
+        bear(e, t1, t2, cosSpread, rng, p, first + static_cast<std::uint32_t>(k));
+    });
+    p.count += static_cast<std::uint32_t>(n);
+    e.born += n;
 }
 
 namespace {
@@ -267,7 +293,7 @@ namespace {
 __attribute__((target("avx2"))) std::uint32_t advanceEights(ParticlePool& p, std::uint32_t begin,
                                                             std::uint32_t whole, const Vec3& gravity,
                                                             float keepScalar, float dt, std::uint32_t* dead,
-                                                            std::uint32_t& listed) {
+                                                            std::uint32_t& listed, std::uint32_t& deaths) {
     const __m256 keep = _mm256_set1_ps(keepScalar);
     const __m256 gx = _mm256_set1_ps(float(gravity.x) * dt), gy = _mm256_set1_ps(float(gravity.y) * dt),
                  gz = _mm256_set1_ps(float(gravity.z) * dt);
@@ -286,11 +312,14 @@ __attribute__((target("avx2"))) std::uint32_t advanceEights(ParticlePool& p, std
         const __m256 age = _mm256_add_ps(_mm256_loadu_ps(&p.age[i]), step);
         _mm256_storeu_ps(&p.age[i], age);
         const int died = _mm256_movemask_ps(_mm256_cmp_ps(age, _mm256_loadu_ps(&p.lifetime[i]), _CMP_NLT_US));
-        if (died & 0x0f) {
-            dead[listed++] = i;
-        }
-        if (died & 0xf0) {
-            dead[listed++] = i + 4;
+        if (died != 0) {
+            deaths += std::uint32_t(__builtin_popcount(unsigned(died)));
+            if (died & 0x0f) {
+                dead[listed++] = i;
+            }
+            if (died & 0xf0) {
+                dead[listed++] = i + 4;
+            }
         }
     }
     return i;
@@ -299,17 +328,19 @@ __attribute__((target("avx2"))) std::uint32_t advanceEights(ParticlePool& p, std
 /// The update of one chunk's particles: v' = v e^(-drag dt) + g dt, x' = x + v' dt, age' = age + dt; four
 /// particles per register. The drag factor is the exact decay over the step, so any drag is stable (1 -
 /// drag dt would not be past 2/dt). Lists the first index of each group of four with a death in `dead`
-/// (the group of the last few, past a multiple of four, too) and returns how many it listed.
-std::uint32_t advanceChunk(ParticlePool& p, std::uint32_t begin, std::uint32_t end, const Vec3& gravity,
-                           float keepScalar, float dt, std::uint32_t* dead, bool avx2) {
+/// (the group of the last few, past a multiple of four, too), in p.deadCounts[chunk] how many it listed
+/// and in p.deaths[chunk] how many died.
+void advanceChunk(ParticlePool& p, std::size_t chunk, std::uint32_t begin, std::uint32_t end,
+                  const Vec3& gravity, float keepScalar, float dt, bool avx2) {
+    std::uint32_t* dead = &p.deadGroups[begin / 4];
     const __m128 keep = _mm_set1_ps(keepScalar);
     const __m128 gx = _mm_set1_ps(float(gravity.x) * dt), gy = _mm_set1_ps(float(gravity.y) * dt),
                  gz = _mm_set1_ps(float(gravity.z) * dt);
     const __m128 step = _mm_set1_ps(dt);
-    std::uint32_t listed = 0;
+    std::uint32_t listed = 0, deaths = 0;
     const std::uint32_t whole = begin + ((end - begin) & ~3u);
     const std::uint32_t fours =
-        avx2 ? advanceEights(p, begin, whole, gravity, keepScalar, dt, dead, listed) : begin;
+        avx2 ? advanceEights(p, begin, whole, gravity, keepScalar, dt, dead, listed, deaths) : begin;
     for (std::uint32_t i = fours; i < whole; i += 4) {
         const __m128 vx = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vx[i]), keep), gx);
         const __m128 vy = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(&p.vy[i]), keep), gy);
@@ -322,12 +353,14 @@ std::uint32_t advanceChunk(ParticlePool& p, std::uint32_t begin, std::uint32_t e
         _mm_storeu_ps(&p.pz[i], _mm_add_ps(_mm_loadu_ps(&p.pz[i]), _mm_mul_ps(vz, step)));
         const __m128 age = _mm_add_ps(_mm_loadu_ps(&p.age[i]), step);
         _mm_storeu_ps(&p.age[i], age);
-        if (_mm_movemask_ps(_mm_cmpge_ps(age, _mm_loadu_ps(&p.lifetime[i]))) != 0) {
+        const int died = _mm_movemask_ps(_mm_cmpge_ps(age, _mm_loadu_ps(&p.lifetime[i])));
+        if (died != 0) {
+            deaths += std::uint32_t(__builtin_popcount(unsigned(died)));
             dead[listed++] = i;
         }
     }
     // the last few (only in the last chunk), one at a time, with exactly the same arithmetic
-    bool tailDeath = false;
+    const std::uint32_t before = deaths;
     for (std::uint32_t i = whole; i < end; ++i) {
         p.vx[i] = p.vx[i] * keepScalar + float(gravity.x) * dt;
         p.vy[i] = p.vy[i] * keepScalar + float(gravity.y) * dt;
@@ -336,12 +369,34 @@ std::uint32_t advanceChunk(ParticlePool& p, std::uint32_t begin, std::uint32_t e
         p.py[i] += p.vy[i] * dt;
         p.pz[i] += p.vz[i] * dt;
         p.age[i] += dt;
-        tailDeath = tailDeath || p.age[i] >= p.lifetime[i];
+        deaths += p.age[i] >= p.lifetime[i] ? 1u : 0u;
     }
-    if (tailDeath) {
+    if (deaths != before) {
         dead[listed++] = whole;
     }
-    return listed;
+    p.deadCounts[chunk] = listed;
+    p.deaths[chunk] = deaths;
+}
+
+/// Fills the holes one chunk's dead leave below the new end with the survivors past it (p.fillers), the
+/// chunk's first death taking filler `rank`: the k-th hole of the pool, counted from index 0, takes the
+/// k-th survivor past the new end.
+void fillHoles(ParticlePool& p, std::size_t chunk, std::uint32_t newCount, std::uint32_t rank) {
+    const std::uint32_t* dead = &p.deadGroups[chunk * (kParticleGrain / 4)];
+    for (std::uint32_t g = 0; g < p.deadCounts[chunk]; ++g) {
+        for (std::uint32_t i = dead[g]; i < std::min(dead[g] + 4, p.count); ++i) {
+            if (p.age[i] < p.lifetime[i]) {
+                continue;
+            }
+            if (i >= newCount) {
+                return; // this death and those after it are past the new end
+            }
+            const std::uint32_t from = p.fillers[rank++];
+            for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+                (*a)[i] = (*a)[from];
+            }
+        }
+    }
 }
 
 } // namespace
@@ -351,31 +406,32 @@ std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag,
     const bool avx2 = activeSimd() == Simd::Avx2;
     // every chunk lists its groups with a death in its own stretch of deadGroups (a group's slot is its
     // first index / 4), so no chunk waits on another
+    const std::size_t chunks = WorkerPool::chunkCount(p.count, kParticleGrain);
     pool.forChunks(p.count, kParticleGrain, [&](std::size_t c, std::size_t b, std::size_t e) {
-        p.deadCounts[c] = advanceChunk(p, std::uint32_t(b), std::uint32_t(e), gravity, keep, dt,
-                                       &p.deadGroups[b / 4], avx2);
+        advanceChunk(p, c, std::uint32_t(b), std::uint32_t(e), gravity, keep, dt, avx2);
     });
-    // swap-remove the dead, highest index first (chunks last to first, each's groups last to first):
-    // whatever moves in from the end has been checked already. The same order at any thread count.
-    std::uint32_t deaths = 0;
-    for (std::size_t c = WorkerPool::chunkCount(p.count, kParticleGrain); c-- > 0;) {
-        const std::uint32_t* dead = &p.deadGroups[c * (kParticleGrain / 4)];
-        for (std::uint32_t g = p.deadCounts[c]; g-- > 0;) {
-            const std::uint32_t first = dead[g];
-            for (std::uint32_t i = std::min(first + 4, p.count); i-- > first;) {
-                if (p.age[i] < p.lifetime[i]) {
-                    continue;
-                }
-                const std::uint32_t last = --p.count;
-                for (std::vector<float>* a :
-                     {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
-                    (*a)[i] = (*a)[last];
-                }
-                ++deaths;
-            }
+    // the dead leave holes; the survivors past the new end fill them, the k-th hole from the start taking
+    // the k-th such survivor, each chunk its own holes: the same order at any thread count
+    std::uint32_t died = 0;
+    for (std::size_t c = 0; c < chunks; ++c) {
+        const std::uint32_t d = p.deaths[c];
+        p.deaths[c] = died; // from here on: the rank of the chunk's first death
+        died += d;
+    }
+    if (died == 0) {
+        return 0;
+    }
+    const std::uint32_t newCount = p.count - died;
+    std::uint32_t fillers = 0;
+    for (std::uint32_t i = newCount; i < p.count; ++i) {
+        if (p.age[i] < p.lifetime[i]) {
+            p.fillers[fillers++] = i;
         }
     }
-    return deaths;
+    pool.forChunks(newCount, kParticleGrain,
+                   [&](std::size_t c, std::size_t, std::size_t) { fillHoles(p, c, newCount, p.deaths[c]); });
+    p.count = newCount;
+    return died;
 }
 
 void emitParticles(World& world, const StepContext& ctx) {
@@ -390,7 +446,7 @@ void emitParticles(World& world, const StepContext& ctx) {
             births += due - e.rateBorn;
             e.rateBorn = due;
         }
-        spawnParticles(e, births);
+        spawnParticles(e, births, poolOr(ctx.pool));
     });
 }
 

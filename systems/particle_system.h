@@ -9,9 +9,10 @@
 //   seconds of simulated time; set_rate carries the owed fraction into the new rate. When the
 //   pool is full (max_particles), a birth is dropped, not swapped for an older particle; `dropped` counts
 //   them, and the dump shows it.
-// particles (phase fixed, after the emitters): ages every particle, removes the dead by swap-remove, and
-//   advances the rest by symplectic Euler, v += dt (g + fields) with drag applied as its exact decay
-//   e^(-drag dt), then x += dt v: first order, one evaluation, stable for any drag. The fields are taken
+// particles (phase fixed, after the emitters): ages every particle, removes the dead (the survivors past
+//   the new end fill their holes, in order), and advances the rest by symplectic Euler, v += dt (g +
+//   fields) with drag applied as its exact decay e^(-drag dt), then x += dt v: first order, one
+//   evaluation, stable for any drag. The fields are taken
 //   explicitly: a wind or vortex coefficient above 2/dt makes particles overshoot. Particles move a whole
 //   step at a time, so one faster than a collider's thickness per step can pass through it. Reads SceneDef
 //   (gravity), ForceField; writes ParticleEmitter. Collisions with static colliders are the collision
@@ -35,15 +36,17 @@ void emitParticles(World& world, const StepContext& ctx);
 /// Ageing, deaths and motion of every emitter's particles.
 void updateParticles(World& world, const StepContext& ctx);
 
-/// Gives birth to up to n particles (fewer when the pool fills; the rest are counted as dropped).
-void spawnParticles(ParticleEmitter& emitter, std::uint64_t n);
+/// Gives birth to up to n particles (fewer when the pool fills; the rest are counted as dropped), in chunks
+/// over the pool's threads: each birth's draws are keyed by the emitter and the birth's number.
+void spawnParticles(ParticleEmitter& emitter, std::uint64_t n, WorkerPool& threads = serialPool());
 
 /// Sizes every array of a pool for `capacity` particles, once, at load: the update never allocates.
 void reserveParticles(ParticlePool& pool, std::uint32_t capacity);
 
 /// Ages the pool by dt, removes the particles whose lifetime is over, and advances the survivors under
 /// gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel, in chunks
-/// shared by the pool's threads: the same bits at any thread count (removal runs in index order after).
+/// shared by the pool's threads; then the holes the dead leave below the new end are filled, in index
+/// order, by the survivors past it, also in chunks: the same bits at any thread count.
 std::uint32_t advanceParticles(ParticlePool& pool, const Vec3& gravity, float drag, float dt,
                                WorkerPool& threads = serialPool());
 

@@ -261,7 +261,9 @@ TEST(Untangle, SheetFoldedThroughItself) {
     const Recovery r = recover(*sim, {"sheet"}, 60);
     EXPECT_GT(r.start, 10);
     EXPECT_GE(r.cleanAt, 1);
-    EXPECT_LE(r.cleanAt, 30) << r.start << " pairs crossed at the start";
+    // clean in 29 steps with the solver's bits of replay format 2, 34 with those of format 3: how long the
+    // springs take to stop pulling the part back depends on rounding, so the bound has room for it
+    EXPECT_LE(r.cleanAt, 40) << r.start << " pairs crossed at the start";
     EXPECT_EQ(r.afterwards, 0);
     EXPECT_LT(r.fastest, 20.0);
 }

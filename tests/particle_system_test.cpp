@@ -203,36 +203,47 @@ TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
     const Vec3 g{0.0, -9.81, 0.0};
     const float drag = 0.3f, dt = 0.02f;
     const std::uint32_t deaths = advanceParticles(p, g, drag, dt);
-    // the plain reference: same arithmetic per particle, deaths filtered out
-    std::vector<std::array<float, 8>> expected;
+    // the plain reference: same arithmetic per particle
+    std::vector<std::array<float, 8>> moved;
+    std::vector<bool> alive;
     for (std::uint32_t i = 0; i < q.count; ++i) {
         const float keep = std::exp(-drag * dt);
         const float vx = q.vx[i] * keep + float(g.x) * dt;
         const float vy = q.vy[i] * keep + float(g.y) * dt;
         const float vz = q.vz[i] * keep + float(g.z) * dt;
         const float age = q.age[i] + dt;
-        if (age >= q.lifetime[i]) {
-            continue;
-        }
-        expected.push_back(
+        alive.push_back(age < q.lifetime[i]);
+        moved.push_back(
             {q.px[i] + vx * dt, q.py[i] + vy * dt, q.pz[i] + vz * dt, vx, vy, vz, age, q.lifetime[i]});
     }
-    ASSERT_EQ(p.count, expected.size());
+    // and its order: the survivors past the new end fill the holes below it, the k-th hole from the start
+    // taking the k-th such survivor
+    const auto survivors = static_cast<std::uint32_t>(std::count(alive.begin(), alive.end(), true));
+    std::vector<std::uint32_t> fillers;
+    for (std::uint32_t i = survivors; i < q.count; ++i) {
+        if (alive[i]) {
+            fillers.push_back(i);
+        }
+    }
+    std::vector<std::array<float, 8>> expected;
+    std::size_t next = 0;
+    for (std::uint32_t i = 0; i < survivors; ++i) {
+        expected.push_back(alive[i] ? moved[i] : moved[fillers[next++]]);
+    }
+    ASSERT_EQ(next, fillers.size());
+    ASSERT_EQ(p.count, survivors);
     EXPECT_EQ(deaths, 1003u - p.count);
     EXPECT_GT(deaths, 0u);
-    // the survivors are the same particles (in another order after swap-removes): compare as sorted sets
     std::vector<std::array<float, 8>> got;
     for (std::uint32_t i = 0; i < p.count; ++i) {
         got.push_back({p.px[i], p.py[i], p.pz[i], p.vx[i], p.vy[i], p.vz[i], p.age[i], p.lifetime[i]});
     }
-    std::sort(got.begin(), got.end());
-    std::sort(expected.begin(), expected.end());
     EXPECT_EQ(got, expected);
 }
 
 TEST(ParticleSystem, Avx2AndSse2KernelsAndAnyThreadCountGiveTheSameBitsInTheSameOrder) {
-    // three chunks and a ragged tail, many deaths: the lists of dead groups and the swap-removes they
-    // drive must come out the same, particle for particle, whichever kernel and however many threads
+    // three chunks and a ragged tail, many deaths: the lists of dead groups and the hole fills they drive
+    // must come out the same, particle for particle, whichever kernel and however many threads
     constexpr std::uint32_t n = 40003;
     ParticlePool base;
     reserveParticles(base, n);
@@ -277,6 +288,47 @@ TEST(ParticleSystem, Avx2AndSse2KernelsAndAnyThreadCountGiveTheSameBitsInTheSame
     if (!avx2Available()) {
         GTEST_SKIP() << "no AVX2 here: only SSE2 at several thread counts was compared";
     }
+}
+
+TEST(ParticleSystem, BirthsHaveTheSameBitsAtAnyThreadCount) {
+    // draws keyed by the birth's number: 5000 births of a sphere emitter (rejection sampling, so a varying
+    // number of draws each) in chunks on 1 to 7 threads, and in two calls, give the same particles
+    ParticleEmitter base;
+    base.def.shape = EmitterShape::Sphere;
+    base.def.radius = 0.5;
+    base.seed = 77;
+    reserveParticles(base.pool, 6000);
+    auto born = [&](int threads, bool split) {
+        WorkerPool pool(threads);
+        ParticleEmitter e = base;
+        if (split) {
+            spawnParticles(e, 1234, pool);
+            spawnParticles(e, 5000 - 1234, pool);
+        } else {
+            spawnParticles(e, 5000, pool);
+        }
+        return e;
+    };
+    const ParticleEmitter reference = born(1, false);
+    ASSERT_EQ(reference.pool.count, 5000u);
+    EXPECT_EQ(reference.born, 5000u);
+    for (const auto& [threads, split] :
+         std::vector<std::pair<int, bool>>{{2, false}, {7, false}, {3, true}}) {
+        const ParticleEmitter e = born(threads, split);
+        ASSERT_EQ(e.pool.count, reference.pool.count);
+        for (auto member :
+             {&ParticlePool::px, &ParticlePool::py, &ParticlePool::pz, &ParticlePool::vx, &ParticlePool::vy,
+              &ParticlePool::vz, &ParticlePool::age, &ParticlePool::lifetime}) {
+            EXPECT_EQ(
+                std::memcmp((e.pool.*member).data(), (reference.pool.*member).data(), 5000 * sizeof(float)),
+                0)
+                << threads << " threads" << (split ? ", two calls" : "");
+        }
+    }
+    // and they are different particles: no two births share their draws
+    std::vector<float> xs(reference.pool.px.begin(), reference.pool.px.begin() + 5000);
+    std::sort(xs.begin(), xs.end());
+    EXPECT_EQ(std::adjacent_find(xs.begin(), xs.end()), xs.end());
 }
 
 TEST(ParticleSystem, ColourAndSizeOverLife) {

@@ -68,6 +68,7 @@ void runMillion(benchmark::State& state, bool plain, int threads = 1) {
     WorkerPool pool(threads);
     StepContext ctx;
     ctx.dt = s.sim->scene().dt;
+    ctx.pool = &pool; // births share out too
     const Vec3 g{0.0, -9.81, 0.0};
     const auto drag = static_cast<float>(s.emitter->def.drag);
     for (auto _ : state) {
