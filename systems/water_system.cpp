@@ -74,17 +74,24 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
     world.emplace<Water>(entity, std::move(w));
 }
 
-/// One wave step of dt: v += dt (c^2 Lap(h) - damping v), then h += dt v (symplectic Euler). Rows of the
-/// grid are shared out in chunks (each row's new v reads only h), so any thread count gives the same bits.
+/// One wave step of dt: v += dt (c^2 Lap(h) - damping v), then h += dt v (symplectic Euler), in one pass
+/// that writes the new heights beside the old (hNext, swapped with h after), so a row's new v and h need
+/// only the old h around it. Rows are shared out in chunks, so any thread count gives the same bits.
 void waveStep(Water& w, double dt, WorkerPool& pool) {
     const int nx = w.nx, nz = w.nz;
     const double ax = w.waveSpeed * w.waveSpeed / (w.dx() * w.dx());
     const double az = w.waveSpeed * w.waveSpeed / (w.dz() * w.dz());
     const double keep = std::exp(-dt * w.damping); // exact decay: stable at any damping
-    double* h = w.h.data();
+    // an absorbing border moves as a wave leaving it would: u_t = -c du/dn (n outward), from the slope
+    // inside; the rows at z's ends take it along z (the corners too), the other rows at x's ends along x
+    const bool absorb = w.border == WaterBorder::Absorb;
+    const double cx = w.waveSpeed / w.dx(), cz = w.waveSpeed / w.dz();
+    const double* h = w.h.data();
     double* v = w.v.data();
-    // rows per chunk: about 16k nodes, enough work to be worth a thread
-    const std::size_t rowsPerChunk = std::max<std::size_t>(1, (std::size_t(1) << 14) / std::size_t(nx));
+    w.hNext.resize(w.h.size());
+    double* next = w.hNext.data();
+    // rows per chunk: about 8k nodes, enough work to be worth a thread
+    const std::size_t rowsPerChunk = std::max<std::size_t>(1, (std::size_t(1) << 13) / std::size_t(nx));
     pool.forEach(std::size_t(nz), rowsPerChunk, [&](std::size_t row_) {
         const int k = int(row_);
         // a reflecting border mirrors the row or column next to it (zero slope across the border)
@@ -92,36 +99,31 @@ void waveStep(Water& w, double dt, WorkerPool& pool) {
         const double* below = h + std::size_t(k > 0 ? k - 1 : 1) * nx;
         const double* above = h + std::size_t(k < nz - 1 ? k + 1 : nz - 2) * nx;
         double* vr = v + std::size_t(k) * nx;
-        vr[0] =
-            keep * vr[0] + dt * (ax * 2.0 * (row[1] - row[0]) + az * (below[0] + above[0] - 2.0 * row[0]));
-        for (int i = 1; i < nx - 1; ++i) {
-            const double lap =
-                ax * (row[i - 1] + row[i + 1] - 2.0 * row[i]) + az * (below[i] + above[i] - 2.0 * row[i]);
-            vr[i] = keep * vr[i] + dt * lap;
-        }
+        double* out = next + std::size_t(k) * nx;
         const int e = nx - 1;
-        vr[e] = keep * vr[e] +
-                dt * (ax * 2.0 * (row[e - 1] - row[e]) + az * (below[e] + above[e] - 2.0 * row[e]));
-    });
-    if (w.border == WaterBorder::Absorb) {
-        // the border moves as a wave leaving it would: u_t = -c du/dn (n outward), from the slope inside
-        const double cx = w.waveSpeed / w.dx(), cz = w.waveSpeed / w.dz();
-        for (int k = 0; k < nz; ++k) {
-            double* r = h + std::size_t(k) * nx;
-            v[std::size_t(k) * nx] = cx * (r[1] - r[0]);
-            v[std::size_t(k) * nx + nx - 1] = cx * (r[nx - 2] - r[nx - 1]);
+        if (absorb && (k == 0 || k == nz - 1)) {
+            const double* inside = k == 0 ? above : below;
+            for (int i = 0; i < nx; ++i) {
+                vr[i] = cz * (inside[i] - row[i]);
+            }
+        } else {
+            vr[0] = absorb ? cx * (row[1] - row[0])
+                           : keep * vr[0] + dt * (ax * 2.0 * (row[1] - row[0]) +
+                                                  az * (below[0] + above[0] - 2.0 * row[0]));
+            for (int i = 1; i < e; ++i) {
+                const double lap =
+                    ax * (row[i - 1] + row[i + 1] - 2.0 * row[i]) + az * (below[i] + above[i] - 2.0 * row[i]);
+                vr[i] = keep * vr[i] + dt * lap;
+            }
+            vr[e] = absorb ? cx * (row[e - 1] - row[e])
+                           : keep * vr[e] + dt * (ax * 2.0 * (row[e - 1] - row[e]) +
+                                                  az * (below[e] + above[e] - 2.0 * row[e]));
         }
         for (int i = 0; i < nx; ++i) {
-            v[std::size_t(i)] = cz * (h[std::size_t(nx) + i] - h[std::size_t(i)]);
-            const std::size_t last = std::size_t(nz - 1) * nx + i;
-            v[last] = cz * (h[last - nx] - h[last]);
-        }
-    }
-    pool.forChunks(w.h.size(), std::size_t(1) << 14, [&](std::size_t, std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-            h[i] += dt * v[i];
+            out[i] = row[i] + dt * vr[i];
         }
     });
+    std::swap(w.h, w.hNext);
 }
 
 /// The vertical extent of a body's column at world (x, z), and how much of the node's cell it covers, or
@@ -232,7 +234,10 @@ double bodyVolume(const RigidBody& b) {
 /// Buoyancy, drag and displacement between one water surface and the moving bodies in it.
 void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     std::vector<double>& now = w.occupying;
-    now.assign(w.h.size(), 0.0);
+    const bool wasOccupied = w.anyOccupied; // `occupied` holds a share somewhere (else it is all zeros)
+    if (!w.occupyingZero || now.size() != w.h.size()) {
+        now.assign(w.h.size(), 0.0); // (kept clear while no body is in the water: a pass over the grid)
+    }
     const double area = w.dx() * w.dz();
     bool touched = false; // whether any body reaches into the water this step
     world.view<RigidBody>().each([&](Entity, RigidBody& b) {
@@ -291,7 +296,8 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     // everywhere else by as much in all (and flows back as the body rises): the volume is kept, and the dent
     // under the body makes the waves. (Put into the ring of nodes around the body instead, a sinking crate
     // raised spikes there that fed back into its buoyancy and grew without bound.)
-    if (!touched && !w.anyOccupied) {
+    w.occupyingZero = !touched;
+    if (!touched && !wasOccupied) {
         return; // no body in the water, now or last step: nothing moves (the pass below would add zeros)
     }
     w.anyOccupied = touched;
@@ -312,6 +318,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         }
     }
     w.occupied.swap(now);
+    w.occupyingZero = !wasOccupied;
 }
 
 void dumpWater(const Water& w, JsonWriter& out) {
