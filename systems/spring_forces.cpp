@@ -8,10 +8,63 @@
 
 namespace tumble {
 
+namespace {
+
+/// Lists in compressed-row form: list `of[k]` gets entry `entry(k)`, in k order.
+template <class Of, class Entry>
+void buildLists(std::size_t lists, std::size_t items, std::size_t perItem, Of&& of, Entry&& entry,
+                std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& out) {
+    start.assign(lists + 1, 0);
+    for (std::size_t k = 0; k < items * perItem; ++k) {
+        ++start[of(k) + 1];
+    }
+    for (std::size_t l = 0; l < lists; ++l) {
+        start[l + 1] += start[l];
+    }
+    out.resize(items * perItem);
+    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    for (std::size_t k = 0; k < items * perItem; ++k) {
+        out[next[of(k)]++] = entry(k);
+    }
+}
+
+/// Items per chunk of the force loops.
+constexpr std::size_t kMassGrain = 2048, kLinkGrain = 8192, kTriangleGrain = 4096;
+
+/// Whether a loop over `items` shares out: computed per item and gathered per mass, which gives exactly
+/// the bits of the plain scatter and pays only when it runs on several threads.
+bool shareOut(const WorkerPool& pool, std::size_t items, std::size_t grain) {
+    return pool.threads() > 1 && items > grain;
+}
+
+} // namespace
+
+void ForceIncidence::update(const SpringNetwork& net) {
+    const std::size_t n = net.x.size();
+    if (linkStart.size() == n + 1 && links.size() == 2 * net.links.size() &&
+        triangles.size() == 3 * net.triangles.size()) {
+        return;
+    }
+    buildLists(
+        n, net.links.size(), 2,
+        [&](std::size_t k) { return k % 2 == 0 ? net.links[k / 2].a : net.links[k / 2].b; },
+        [](std::size_t k) { return std::uint32_t(k); }, linkStart, links);
+    buildLists(
+        n, net.triangles.size(), 3, [&](std::size_t k) { return net.triangles[k / 3][k % 3]; },
+        [](std::size_t k) { return std::uint32_t(k / 3); }, triangleStart, triangles);
+    perLink.resize(net.links.size());
+    linkActive.resize(net.links.size());
+    perTriangle.resize(net.triangles.size());
+    perTriangleBlock.resize(net.triangles.size());
+    triangleActive.resize(net.triangles.size());
+}
+
 void externalForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
-                    const std::vector<Vec3>& v, std::vector<Vec3>& f) {
+                    const std::vector<Vec3>& v, std::vector<Vec3>& f, ForceIncidence& inc) {
     const std::size_t n = x.size();
     f.resize(n);
+    inc.update(net);
+    WorkerPool& pool = poolOr(env.pool);
     // per mass: gravity, drag, fields (wind on cloth goes through the triangles below)
     const bool surfaceWind = net.kind == NetworkKind::Cloth && !net.triangles.empty();
     bool pointFields = false; // any field that acts on each mass (wind on cloth acts on its triangles)
@@ -20,7 +73,7 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
             pointFields = pointFields || !(surfaceWind && field.kind == FieldKind::Wind);
         }
     }
-    poolOr(env.pool).forEach(n, 2048, [&](std::size_t i) {
+    pool.forEach(n, kMassGrain, [&](std::size_t i) {
         const double m = 1.0 / net.invMass[i];
         Vec3 fi = env.gravity * m - v[i] * net.drag;
         if (pointFields) {
@@ -32,43 +85,143 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
         }
         f[i] = fi;
     });
+    if (!surfaceWind || !env.fields) {
+        return;
+    }
     // wind on cloth: per triangle, along its normal, shared by its corners
-    if (surfaceWind && env.fields) {
-        for (const ForceField& field : *env.fields) {
-            if (field.kind != FieldKind::Wind) {
-                continue;
-            }
-            // with A the area-weighted normal (|A| = area), area ((w - v) . n) n = ((w - v) . A) A / |A|
-            const double perCorner = field.coefficient / 3.0;
-            for (const auto& t : net.triangles) {
-                const Vec3 areaNormal = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]) * 0.5;
-                const double area = length(areaNormal);
-                if (area <= 1e-15) {
-                    continue;
-                }
-                const Vec3 relative = field.current - (v[t[0]] + v[t[1]] + v[t[2]]) * (1.0 / 3.0);
-                const Vec3 ft = areaNormal * (perCorner * dot(relative, areaNormal) / area);
-                f[t[0]] += ft;
-                f[t[1]] += ft;
-                f[t[2]] += ft;
-            }
+    const bool gather = shareOut(pool, net.triangles.size(), kTriangleGrain);
+    for (const ForceField& field : *env.fields) {
+        if (field.kind != FieldKind::Wind) {
+            continue;
         }
+        // with A the area-weighted normal (|A| = area), area ((w - v) . n) n = ((w - v) . A) A / |A|
+        const double perCorner = field.coefficient / 3.0;
+        auto windOn = [&](std::size_t k, Vec3& ft) {
+            const auto& t = net.triangles[k];
+            const Vec3 areaNormal = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]) * 0.5;
+            const double area = length(areaNormal);
+            if (area <= 1e-15) {
+                return false;
+            }
+            const Vec3 relative = field.current - (v[t[0]] + v[t[1]] + v[t[2]]) * (1.0 / 3.0);
+            ft = areaNormal * (perCorner * dot(relative, areaNormal) / area);
+            return true;
+        };
+        if (!gather) {
+            Vec3 ft;
+            for (std::size_t k = 0; k < net.triangles.size(); ++k) {
+                if (windOn(k, ft)) {
+                    for (std::uint32_t corner : net.triangles[k]) {
+                        f[corner] += ft;
+                    }
+                }
+            }
+            continue;
+        }
+        pool.forEach(net.triangles.size(), kTriangleGrain,
+                     [&](std::size_t k) { inc.triangleActive[k] = windOn(k, inc.perTriangle[k]); });
+        pool.forEach(n, kMassGrain, [&](std::size_t i) {
+            for (std::uint32_t e = inc.triangleStart[i]; e < inc.triangleStart[i + 1]; ++e) {
+                if (inc.triangleActive[inc.triangles[e]]) {
+                    f[i] += inc.perTriangle[inc.triangles[e]];
+                }
+            }
+        });
     }
 }
 
 void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
-                  const std::vector<Vec3>& v, std::vector<Vec3>& f) {
-    externalForces(net, env, x, v, f);
-    for (const SpringLink& s : net.links) {
+                  const std::vector<Vec3>& v, std::vector<Vec3>& f, ForceIncidence& inc) {
+    externalForces(net, env, x, v, f, inc);
+    WorkerPool& pool = poolOr(env.pool);
+    auto linkForce = [&](std::size_t k, Vec3& fa) {
+        const SpringLink& s = net.links[k];
         const Vec3 d = x[s.b] - x[s.a];
         const double len = length(d);
         if (len <= 1e-12) {
-            continue; // coincident masses: no direction to push along
+            return false; // coincident masses: no direction to push along
         }
         const Vec3 u = d * (1.0 / len);
-        const Vec3 fa = u * (s.k * (len - s.rest) + s.kd * dot(v[s.b] - v[s.a], u));
-        f[s.a] += fa;
-        f[s.b] -= fa;
+        fa = u * (s.k * (len - s.rest) + s.kd * dot(v[s.b] - v[s.a], u));
+        return true;
+    };
+    if (!shareOut(pool, net.links.size(), kLinkGrain)) {
+        Vec3 fa;
+        for (std::size_t k = 0; k < net.links.size(); ++k) {
+            if (linkForce(k, fa)) {
+                f[net.links[k].a] += fa;
+                f[net.links[k].b] -= fa;
+            }
+        }
+        return;
+    }
+    pool.forEach(net.links.size(), kLinkGrain,
+                 [&](std::size_t k) { inc.linkActive[k] = linkForce(k, inc.perLink[k]); });
+    // each mass its links' forces in link order: + on a link's a, - on its b
+    pool.forEach(x.size(), kMassGrain, [&](std::size_t i) {
+        for (std::uint32_t e = inc.linkStart[i]; e < inc.linkStart[i + 1]; ++e) {
+            const std::uint32_t k = inc.links[e] / 2;
+            if (!inc.linkActive[k]) {
+                continue;
+            }
+            if (inc.links[e] % 2 == 0) {
+                f[i] += inc.perLink[k];
+            } else {
+                f[i] -= inc.perLink[k];
+            }
+        }
+    });
+}
+
+void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
+                  const std::vector<Vec3>& v, std::vector<Vec3>& f) {
+    ForceIncidence incidence;
+    springForces(net, env, x, v, f, incidence);
+}
+
+void addWindDamping(const SpringNetwork& net, const Environment& env, double h, ForceIncidence& inc,
+                    std::vector<Mat3>& diagonal) {
+    if (!env.fields || net.kind != NetworkKind::Cloth) {
+        return;
+    }
+    inc.update(net);
+    WorkerPool& pool = poolOr(env.pool);
+    const bool gather = shareOut(pool, net.triangles.size(), kTriangleGrain);
+    for (const ForceField& field : *env.fields) {
+        if (field.kind != FieldKind::Wind || field.coefficient == 0.0) {
+            continue;
+        }
+        auto blockOf = [&](std::size_t k, Mat3& block) {
+            const auto& t = net.triangles[k];
+            const Vec3 areaNormal = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]) * 0.5;
+            const double area = length(areaNormal);
+            if (area <= 1e-15) {
+                return false;
+            }
+            // c A/3 n n^T = c/3 (A n)(A n)^T / A
+            block = Mat3::outer(areaNormal, h * field.coefficient / (3.0 * area));
+            return true;
+        };
+        if (!gather) {
+            Mat3 block;
+            for (std::size_t k = 0; k < net.triangles.size(); ++k) {
+                if (blockOf(k, block)) {
+                    for (std::uint32_t corner : net.triangles[k]) {
+                        diagonal[corner] += block;
+                    }
+                }
+            }
+            continue;
+        }
+        pool.forEach(net.triangles.size(), kTriangleGrain,
+                     [&](std::size_t k) { inc.triangleActive[k] = blockOf(k, inc.perTriangleBlock[k]); });
+        pool.forEach(net.x.size(), kMassGrain, [&](std::size_t i) {
+            for (std::uint32_t e = inc.triangleStart[i]; e < inc.triangleStart[i + 1]; ++e) {
+                if (inc.triangleActive[inc.triangles[e]]) {
+                    diagonal[i] += inc.perTriangleBlock[inc.triangles[e]];
+                }
+            }
+        });
     }
 }
 

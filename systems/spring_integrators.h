@@ -43,12 +43,9 @@ template <class S>
 struct ImplicitSolver {
     BlockMatrix<S> system;                                ///< the links plus the diagonal
     std::vector<std::array<std::uint32_t, 2>> linkBlocks; ///< per link: its (a, b) and (b, a) blocks
-    /// Per mass, its links in link order (link index * 2 + 1 when the mass is the link's b): assembly
-    /// gathers each mass's sums from them, in the order a scatter over the links would add them.
-    std::vector<std::uint32_t> incidentStart, incident;
-    std::vector<LinkTerms> terms;            ///< per link, this step's terms (see implicitEuler)
-    std::vector<Mat3> sums;                  ///< the diagonal blocks, summed in double
-    std::vector<std::uint32_t> pinnedBlocks; ///< blocks to clear for pinned rows and columns
+    std::vector<LinkTerms> terms;                         ///< per link, this step's terms (see implicitEuler)
+    std::vector<Mat3> sums;                               ///< the diagonal blocks, summed in double
+    std::vector<std::uint32_t> pinnedBlocks;              ///< blocks to clear for pinned rows and columns
     AggregationMultigrid<S> multigrid;
     PcgVectors<S> pcg;
     std::vector<Vec3T<S>> rhs;
@@ -62,6 +59,8 @@ struct SpringWorkspace {
     std::vector<Vec3> f;              ///< forces
     std::vector<Vec3> xs, v2, v3, v4; ///< stage positions and velocities (midpoint, rk4)
     std::vector<Vec3> a1, a2, a3, a4; ///< stage accelerations
+    /// Each mass's links and triangles: the force loops and the implicit assembly gather per mass from them.
+    ForceIncidence incidence;
 
     ImplicitSolver<float> single;   ///< implicit Euler, solver_precision = "float" (the default)
     ImplicitSolver<double> precise; ///< implicit Euler, solver_precision = "double"
