@@ -7,6 +7,7 @@
 #include "components/spring_network.h"
 #include "components/water.h"
 #include "engine/assets.h"
+#include "engine/parallel.h"
 #include "engine/render_output.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
@@ -217,6 +218,15 @@ Mesh upload(const std::vector<float>& positionNormal) {
 void pushVertex(std::vector<float>& out, const Vec3& p, const Vec3& n) {
     out.insert(out.end(), {float(p.x), float(p.y), float(p.z), float(n.x), float(n.y), float(n.z)});
 }
+
+/// Writes a vertex (position and normal) at `out`, six floats.
+void putVertex(float* out, const Vec3& p, const Vec3& n) {
+    const float v[6] = {float(p.x), float(p.y), float(p.z), float(n.x), float(n.y), float(n.z)};
+    std::copy(v, v + 6, out);
+}
+
+/// Items per chunk when the renderer streams vertices over threads (each chunk writes its own vertices).
+constexpr std::size_t kVertexGrain = 8192;
 
 /// A unit sphere (radius 1) from latitude-longitude quads.
 std::vector<float> sphereMesh(int slices = 32, int stacks = 16) {
@@ -441,15 +451,15 @@ std::array<float, 4> palette(std::size_t n) {
 /// Where a network's masses are drawn: between the positions before and after the last fixed step, at
 /// `alpha` (1: after it, as headless runs draw every frame).
 const std::vector<Vec3>& drawnPositions(const World& world, Entity e, const SpringNetwork& net, double alpha,
-                                        std::vector<Vec3>& scratch) {
+                                        std::vector<Vec3>& scratch, WorkerPool& pool) {
     const RenderHistory* history = world.tryGet<RenderHistory>(e);
     if (alpha >= 1.0 || !history || history->previous.size() != net.x.size()) {
         return net.x;
     }
     scratch.resize(net.x.size());
-    for (std::size_t i = 0; i < net.x.size(); ++i) {
+    pool.forEach(net.x.size(), kVertexGrain, [&](std::size_t i) {
         scratch[i] = history->previous[i] + (net.x[i] - history->previous[i]) * alpha;
-    }
+    });
     return scratch;
 }
 
@@ -612,9 +622,9 @@ void drawSurfaceVertices(Renderer& r, const std::array<float, 4>& colour) {
     glDrawArrays(GL_TRIANGLES, 0, GLsizei(r.clothVertices.size() / 6));
 }
 
-/// A water surface: its height field as a lit, two-sided surface with normals from the slopes.
-void drawWater(const Water& w, Renderer& r) {
-    r.clothVertices.clear();
+/// A water surface: its height field as a lit, two-sided surface with normals from the slopes; its rows'
+/// vertices written over threads.
+void drawWater(const Water& w, Renderer& r, WorkerPool& pool) {
     auto at = [&](int i, int k) {
         return Vec3{w.nodeX(i), w.centre.y + w.h[std::size_t(k) * w.nx + i], w.nodeZ(k)};
     };
@@ -628,21 +638,28 @@ void drawWater(const Water& w, Renderer& r) {
         const Vec3 n{-sx, 1.0, -sz};
         return n * (1.0 / length(n));
     };
-    for (int k = 0; k + 1 < w.nz; ++k) {
-        for (int i = 0; i + 1 < w.nx; ++i) {
-            for (const auto& [di, dk] : {std::pair{0, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{0, 0},
-                                         std::pair{1, 1}, std::pair{1, 0}}) {
-                pushVertex(r.clothVertices, at(i + di, k + dk), normal(i + di, k + dk));
-            }
-        }
-    }
+    // two triangles a cell, six vertices of six floats
+    const std::size_t perRow = std::size_t(w.nx - 1) * 36;
+    r.clothVertices.resize(perRow * std::size_t(w.nz - 1));
+    pool.forEach(std::size_t(w.nz - 1), std::max<std::size_t>(1, kVertexGrain / std::size_t(w.nx)),
+                 [&](std::size_t row) {
+                     const int k = int(row);
+                     float* out = r.clothVertices.data() + row * perRow;
+                     for (int i = 0; i + 1 < w.nx; ++i) {
+                         for (const auto& [di, dk] : {std::pair{0, 0}, std::pair{0, 1}, std::pair{1, 1},
+                                                      std::pair{0, 0}, std::pair{1, 1}, std::pair{1, 0}}) {
+                             putVertex(out, at(i + di, k + dk), normal(i + di, k + dk));
+                             out += 6;
+                         }
+                     }
+                 });
     drawSurfaceVertices(r, {0.20f, 0.45f, 0.75f, 1.0f});
 }
 
 /// A network with surface triangles (cloth, the outside of a soft body), lit, with smooth normals.
 void drawSurface(const SpringNetwork& net, const std::vector<Vec3>& x, Renderer& r,
-                 const std::array<float, 4>& colour) {
-    // per-mass normals: the area-weighted sum of the triangles around it
+                 const std::array<float, 4>& colour, WorkerPool& pool) {
+    // per-mass normals: the area-weighted sum of the triangles around it, then unit length
     r.normals.assign(x.size(), Vec3{});
     for (const auto& t : net.triangles) {
         const Vec3 n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
@@ -650,13 +667,19 @@ void drawSurface(const SpringNetwork& net, const std::vector<Vec3>& x, Renderer&
             r.normals[i] += n;
         }
     }
-    r.clothVertices.clear();
-    for (const auto& t : net.triangles) {
-        for (std::uint32_t i : t) {
-            const double len = length(r.normals[i]);
-            pushVertex(r.clothVertices, x[i], len > 0 ? r.normals[i] * (1.0 / len) : Vec3{0, 0, 1});
+    pool.forEach(x.size(), kVertexGrain, [&](std::size_t i) {
+        const double len = length(r.normals[i]);
+        r.normals[i] = len > 0 ? r.normals[i] * (1.0 / len) : Vec3{0, 0, 1};
+    });
+    // three vertices a triangle, written over threads
+    r.clothVertices.resize(net.triangles.size() * 18);
+    pool.forEach(net.triangles.size(), kVertexGrain, [&](std::size_t k) {
+        float* out = r.clothVertices.data() + k * 18;
+        for (std::uint32_t i : net.triangles[k]) {
+            putVertex(out, x[i], r.normals[i]);
+            out += 6;
         }
-    }
+    });
     drawSurfaceVertices(r, colour);
 }
 
@@ -708,11 +731,13 @@ void renderWorld(World& world, const StepContext& ctx) {
     glUniform3f(r.mesh.lightDir, float(light.x), float(light.y), float(light.z));
     glUniform3f(r.mesh.eye, float(eye.x), float(eye.y), float(eye.z));
     drawColliders(world, r, ctx.alpha);
-    world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r); });
+    WorkerPool& pool = poolOr(ctx.pool);
+    world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r, pool); });
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         if (!net.triangles.empty() && !output->wireframe) {
-            drawSurface(net, drawnPositions(world, e, net, ctx.alpha, r.positions), r, palette(drawn));
+            drawSurface(net, drawnPositions(world, e, net, ctx.alpha, r.positions, pool), r, palette(drawn),
+                        pool);
         }
         ++drawn;
     });
@@ -725,7 +750,7 @@ void renderWorld(World& world, const StepContext& ctx) {
         if (!net.triangles.empty() && !output->wireframe) {
             return; // drawn as a surface
         }
-        const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions);
+        const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions, pool);
         for (const SpringLink& s : net.links) {
             for (std::uint32_t i : {s.a, s.b}) {
                 r.flat.push_back(
@@ -746,7 +771,7 @@ void renderWorld(World& world, const StepContext& ctx) {
         }
         const float radius = float(std::max(0.04, net.thickness));
         r.instances.clear();
-        for (const Vec3& x : drawnPositions(world, e, net, ctx.alpha, r.positions)) {
+        for (const Vec3& x : drawnPositions(world, e, net, ctx.alpha, r.positions, pool)) {
             r.instances.insert(r.instances.end(), {float(x.x), float(x.y), float(x.z), radius});
         }
         glUniform4fv(r.mesh.colour, 1, c.data());
@@ -774,12 +799,19 @@ void renderWorld(World& world, const StepContext& ctx) {
         // particles move by symplectic Euler, x' = x + dt v', so x - (1 - alpha) dt v is exactly where a
         // particle was at alpha between the last two steps (unless it bounced or was born in the last one)
         const float back = float((std::min(ctx.alpha, 1.0) - 1.0) * ctx.dt);
-        for (std::uint32_t i = 0; i < p.count; ++i) {
+        r.flat.resize(p.count);
+        pool.forEach(p.count, kVertexGrain, [&](std::size_t i) {
             const float life = p.lifetime[i] > 0.0f ? std::min(1.0f, p.age[i] / p.lifetime[i]) : 1.0f;
             const auto c = particleColor(e.def, life);
-            r.flat.push_back({p.px[i] + back * p.vx[i], p.py[i] + back * p.vy[i], p.pz[i] + back * p.vz[i],
-                              c[0], c[1], c[2], c[3], particleSize(e.def, life)});
-        }
+            r.flat[i] = {p.px[i] + back * p.vx[i],
+                         p.py[i] + back * p.vy[i],
+                         p.pz[i] + back * p.vz[i],
+                         c[0],
+                         c[1],
+                         c[2],
+                         c[3],
+                         particleSize(e.def, life)};
+        });
         glBindVertexArray(r.particleVao);
         glBindBuffer(GL_ARRAY_BUFFER, r.particleVbo);
         glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.flat.size() * sizeof(FlatVertex)), r.flat.data(),
