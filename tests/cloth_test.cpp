@@ -311,5 +311,49 @@ pin = "first"
     EXPECT_LT(length(net.x.back() - net.x[0]), 1.05) << "springs keep it near its length";
 }
 
+TEST(Rope, AtRestThePinHoldsTheRopesWeight) {
+    // a rope of 11 equal masses (0.5 kg in all) with bend springs, hanging from its first mass, damped (its
+    // springs and a drag on its swing) until it stops: the pull of the springs on the pin is the weight of
+    // the 10 free masses, 10/11 of 0.5 kg times g, to a thousandth
+    auto sim = makeSimulation(R"(
+[scene]
+name = "rope"
+dt = 0.005
+[[entity]]
+name = "rope"
+[entity.transform]
+position = [0, 2, 0]
+[entity.rope]
+segments = 10
+length = 1.0
+direction = [0.6, -0.8, 0.0]
+mass = 0.5
+stiffness = 2000.0
+bend = 50.0
+damping = 3.0
+drag = 0.2
+pin = "first"
+integrator = "implicit_euler"
+solver_precision = "double"
+cg_tolerance = 1e-12
+)");
+    for (int i = 0; i < 20000 && (i < 100 || maxSpeed(network(*sim, "rope")) > 1e-7); ++i) {
+        sim->runFrame();
+    }
+    const SpringNetwork& net = network(*sim, "rope");
+    ASSERT_LT(maxSpeed(net), 1e-7) << "the rope came to rest";
+    Vec3 pull;
+    for (const SpringLink& s : net.links) {
+        const Vec3 d = net.x[s.b] - net.x[s.a];
+        const double len = length(d);
+        const Vec3 onA = d * (s.k * (len - s.rest) / len);
+        pull += net.pinned[s.a] ? onA : Vec3{};
+        pull -= net.pinned[s.b] ? onA : Vec3{};
+    }
+    const double weight = 0.5 * 10.0 / 11.0 * 9.81;
+    EXPECT_NEAR(-pull.y, weight, 1e-3 * weight);
+    EXPECT_NEAR(pull.x, 0.0, 1e-3 * weight) << "straight down below the pin at rest";
+}
+
 } // namespace
 } // namespace tumble

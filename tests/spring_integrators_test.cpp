@@ -101,6 +101,64 @@ INSTANTIATE_TEST_SUITE_P(Springs, IntegratorOrder,
                              return std::string(p.param.integrator);
                          });
 
+/// One step of each method on the linear oscillator, written from its definition (spring_integrators.h):
+/// the exact discrete recurrence the integrator must follow, step for step.
+void recurrenceStep(const std::string& method, double h, const Oscillator& o, double& x, double& v) {
+    auto a = [&](double xx, double vv) { return (-o.k * xx - o.c * vv) / o.m; };
+    if (method == "explicit_euler") {
+        const double x1 = x + h * v, v1 = v + h * a(x, v);
+        x = x1;
+        v = v1;
+    } else if (method == "symplectic_euler") {
+        v = v + h * a(x, v);
+        x = x + h * v;
+    } else if (method == "midpoint") {
+        const double xm = x + 0.5 * h * v, vm = v + 0.5 * h * a(x, v);
+        const double x1 = x + h * vm, v1 = v + h * a(xm, vm);
+        x = x1;
+        v = v1;
+    } else if (method == "rk4") {
+        const double v1 = v, a1 = a(x, v);
+        const double v2 = v + 0.5 * h * a1, a2 = a(x + 0.5 * h * v1, v2);
+        const double v3 = v + 0.5 * h * a2, a3 = a(x + 0.5 * h * v2, v3);
+        const double v4 = v + h * a3, a4 = a(x + h * v3, v4);
+        x += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4);
+        v += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+    } else { // implicit_euler: (m + h c + h^2 k) dv = h (-k x - c v - h k v), v' = v + dv, x' = x + h v'
+        const double dv = h * (-o.k * x - o.c * v - h * o.k * v) / (o.m + h * o.c + h * h * o.k);
+        v += dv;
+        x += h * v;
+    }
+}
+
+class IntegratorRecurrence : public ::testing::TestWithParam<OrderCase> {};
+
+TEST_P(IntegratorRecurrence, EachStepIsTheMethodsExactDiscreteRecurrence) {
+    // a damped oscillator at a coarse step (omega h = 0.25), 400 steps: the simulated state against the
+    // method's own recurrence, within 1e-9 of the amplitude after every step (a method that is merely of
+    // the right order, or another method of that order, drifts far beyond that)
+    const OrderCase c = GetParam();
+    const Oscillator o{40.0, 1.0, 1.5, 0.2};
+    const double h = 0.04;
+    auto sim = oscillator(c.integrator, h, o);
+    double x = o.a, v = 0.0;
+    for (int step = 1; step <= 400; ++step) {
+        sim->runFrame();
+        recurrenceStep(c.integrator, h, o, x, v);
+        const SpringNetwork& net = bob(*sim);
+        ASSERT_NEAR(net.x[1].x - 1.0, x, 1e-9 * o.a) << c.integrator << ", step " << step;
+        ASSERT_NEAR(net.v[1].x, v, 1e-9 * o.a * std::sqrt(o.k / o.m)) << c.integrator << ", step " << step;
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Springs, IntegratorRecurrence,
+                         ::testing::Values(OrderCase{"explicit_euler", 1}, OrderCase{"midpoint", 2},
+                                           OrderCase{"rk4", 4}, OrderCase{"symplectic_euler", 1},
+                                           OrderCase{"implicit_euler", 1}),
+                         [](const ::testing::TestParamInfo<OrderCase>& p) {
+                             return std::string(p.param.integrator);
+                         });
+
 TEST(Integrators, ExplicitEulerGainsEnergyAsTheTheorySays) {
     // on an undamped oscillator each explicit Euler step multiplies the energy by exactly 1 + (omega h)^2
     const Oscillator o{100.0, 1.0, 0.0, 0.1};

@@ -16,17 +16,18 @@
 namespace tumble {
 namespace {
 
-/// A small cloth, crumpled at random and stretched, so that every spring is longer than its rest length
-/// and points in a different 3D direction.
+/// A small cloth, crumpled at random, stretched along x and squeezed along y, so that its springs point in
+/// different 3D directions, some longer and some shorter than their rest length; damped, and moving.
 SpringNetwork crumpledCloth() {
     ClothDef def;
     def.rows = 4;
     def.cols = 4;
-    def.damping = 0.0;
+    def.damping = 0.4;
     SpringNetwork net = buildCloth(def);
     Rng rng(3);
     for (Vec3& x : net.x) {
-        x = x * 1.3 + Vec3{rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)};
+        x = Vec3{x.x * 1.3, x.y * 0.8, x.z} +
+            Vec3{rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)};
     }
     for (Vec3& v : net.v) {
         v = {rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)};
@@ -39,9 +40,13 @@ SpringNetwork crumpledCloth() {
 
 TEST(SpringJacobian, AssembledSystemMatchesFiniteDifferencesOfTheForces) {
     const SpringNetwork before = crumpledCloth();
+    int stretched = 0, compressed = 0;
     for (const SpringLink& s : before.links) {
-        ASSERT_GT(length(before.x[s.b] - before.x[s.a]), s.rest) << "the test wants stretched springs";
+        (length(before.x[s.b] - before.x[s.a]) > s.rest ? stretched : compressed) += 1;
+        ASSERT_GT(s.kd, 0.0) << "the test wants damped springs";
     }
+    ASSERT_GT(stretched, 5);
+    ASSERT_GT(compressed, 5);
     const Environment env{{0.0, -9.81, 0.0}, nullptr};
     const double h = 0.01;
     SpringNetwork net = before;
@@ -49,10 +54,34 @@ TEST(SpringJacobian, AssembledSystemMatchesFiniteDifferencesOfTheForces) {
     stepNetwork(net, work, env, h); // assembles A at the state before the step
     const BlockMatrix<double>& a = work.precise.system;
 
-    // A = M - h dF/dv - h^2 dF/dx, column by column from central differences
+    // A = M - h dF/dv - h^2 dF/dx, column by column from central differences; except that for a compressed
+    // spring the assembly drops the transverse stiffness T = k (1 - R/l) (I - u u^T), which is negative
+    // (Choi & Ko 2002): h^2 T is taken out of the differences here, on the blocks of its two masses (+ on
+    // the diagonal blocks, - on the two others, as the differences have it)
     const std::size_t n = before.x.size();
+    std::vector<std::vector<Mat3>> dropped(n, std::vector<Mat3>(n));
+    for (const SpringLink& s : before.links) {
+        const Vec3 d = before.x[s.b] - before.x[s.a];
+        const double l = length(d);
+        if (l >= s.rest) {
+            continue;
+        }
+        const Vec3 u = d * (1.0 / l);
+        Mat3 t;
+        const double c[3] = {u.x, u.y, u.z};
+        for (std::size_t r = 0; r < 3; ++r) {
+            for (std::size_t q = 0; q < 3; ++q) {
+                t.m[3 * r + q] = h * h * s.k * (1.0 - s.rest / l) * ((r == q ? 1.0 : 0.0) - c[r] * c[q]);
+            }
+        }
+        dropped[s.a][s.a] += t;
+        dropped[s.b][s.b] += t;
+        dropped[s.a][s.b] -= t;
+        dropped[s.b][s.a] -= t;
+    }
     const double eps = 1e-6;
     std::vector<Vec3> fp, fm;
+    const std::vector<Vec3> still(n);
     double worst = 0.0, scale = 0.0;
     for (std::size_t j = 0; j < n; ++j) {
         for (int c = 0; c < 3; ++c) {
@@ -63,8 +92,10 @@ TEST(SpringJacobian, AssembledSystemMatchesFiniteDifferencesOfTheForces) {
             component(pv.v[j]) += eps;
             component(mv.v[j]) -= eps;
             std::vector<Vec3> dfdx(n), dfdv(n);
-            springForces(px, env, px.x, px.v, fp);
-            springForces(mx, env, mx.x, mx.v, fm);
+            // dF/dx at rest: the damping force's change with position is left out of the system (Baraff &
+            // Witkin: it is not symmetric), its change with velocity is in
+            springForces(px, env, px.x, still, fp);
+            springForces(mx, env, mx.x, still, fm);
             for (std::size_t i = 0; i < n; ++i) {
                 dfdx[i] = (fp[i] - fm[i]) * (0.5 / eps);
             }
@@ -78,6 +109,8 @@ TEST(SpringJacobian, AssembledSystemMatchesFiniteDifferencesOfTheForces) {
                 if (i == j) {
                     component(expected) += 1.0 / before.invMass[i];
                 }
+                const Mat3& t = dropped[i][j];
+                expected -= Vec3{t.m[std::size_t(c)], t.m[std::size_t(3 + c)], t.m[std::size_t(6 + c)]};
                 // the stored block (i, j), column c; absent blocks are zero
                 Vec3 got;
                 const auto first = a.col.begin() + a.rowStart[i], last = a.col.begin() + a.rowStart[i + 1];

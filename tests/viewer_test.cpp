@@ -253,7 +253,8 @@ TEST(ViewerRenders, DragOnAClothIsRecordedAndTheReplayVerifiesHeadlessly) {
                                     dragged[held][2] - still[held][2]);
     EXPECT_GT(moved, 0.1) << "the dragged vertex moved " << moved << " m";
 
-    // the physics time: the mouse spring is one more system of the fixed phase, and a small one
+    // the profile: the mouse spring is one more system of the fixed phase (what it costs is measured by
+    // the benchmark BM_CurtainRunHeld, not here: a shared machine's timings prove nothing in a test)
     const nlohmann::json summary = nlohmann::json::parse(test::readFile(profile));
     bool found = false;
     for (const auto& s : summary["systems"]) {
@@ -261,8 +262,6 @@ TEST(ViewerRenders, DragOnAClothIsRecordedAndTheReplayVerifiesHeadlessly) {
             found = true;
             EXPECT_EQ(s["phase"], "fixed");
             EXPECT_GT(s["calls"].get<int>(), 0);
-            // one mass's spring: far below a percent of the frame's physics budget, even sanitized
-            EXPECT_LT(s["mean_ms"].get<double>(), 0.01 * summary["budget"]["physics_ms"].get<double>());
         }
     }
     EXPECT_TRUE(found) << summary.dump();
