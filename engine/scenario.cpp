@@ -166,6 +166,9 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
     scene.seed =
         static_cast<std::uint64_t>(s.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
     scene.solverIterations = static_cast<int>(s.integer("solver_iterations", 10, 1, 1000));
+    scene.sleepLinear = s.number("sleep_linear", scene.sleepLinear, 0.0, 1e3);
+    scene.sleepAngularDeg = s.number("sleep_angular_deg", scene.sleepAngularDeg, 0.0, 1e5);
+    scene.sleepTime = s.number("sleep_time", scene.sleepTime, 1e-3, 1e6);
     scene.velocityIterations = static_cast<int>(s.integer("velocity_iterations", 8, 1, 1000));
     scene.positionIterations = static_cast<int>(s.integer("position_iterations", 3, 1, 1000));
     s.finish();

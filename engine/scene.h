@@ -19,7 +19,12 @@ struct SceneDef {
     std::int64_t frames = 600;                      ///< default run length
     std::array<double, 3> gravity{0.0, -9.81, 0.0}; ///< m/s^2
     std::uint64_t seed = 1;
-    int solverIterations = 10;    ///< Bullet's constraint solver iterations per step
+    int solverIterations = 10; ///< Bullet's constraint solver iterations per step
+    /// A Bullet body may sleep once it has moved slower than these for sleepTime (Box2D's own, 2.4.1's
+    /// compiled-in 0.01 m/s, 2 degrees/s and 0.5 s, hold for Box2D bodies); an island sleeps as a whole.
+    double sleepLinear = 0.05;    ///< m/s
+    double sleepAngularDeg = 2.0; ///< degrees/s
+    double sleepTime = 0.5;       ///< s
     int velocityIterations = 8;   ///< Box2D's velocity iterations per step
     int positionIterations = 3;   ///< Box2D's position iterations per step
     double physicsBudgetMs = 8.0; ///< per frame, held to p99 by `tumble budget`
@@ -48,6 +53,8 @@ struct EventDef {
     std::array<double, 3> position{}; ///< the `position` key (disturb)
     double radius = 0.0;              ///< the `radius` key (disturb), m
     double amount = 0.0;              ///< the `amount` key (disturb), m
+    std::string set;          ///< action "set": KEY=VALUE, as --set takes it (no entity: KEY names it)
+    int line = 0, column = 0; ///< where the scenario gives it (0: not from the scenario file)
 };
 
 } // namespace tumble

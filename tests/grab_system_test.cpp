@@ -70,6 +70,7 @@ name = "crate"
 shape = "box"
 half_extents = [0.2, 0.2, 0.2]
 mass = 4.0
+sleep = false
 [[entity]]
 name = "disc"
 [entity.transform]
@@ -102,7 +103,8 @@ action = "release"
     const RigidBody2D& disc = test::component<RigidBody2D>(*sim, "disc");
     EXPECT_NEAR(disc.position[0], 5.0, 0.01);
     EXPECT_NEAR(disc.position[1], 2.0, 0.01);
-    // let go, nothing pulls: it drifts at the speed it had
+    // let go, nothing pulls: it drifts at the speed it had (sleep is off: resting at the target, it would
+    // sleep, and its speed go to zero)
     runFor(*sim, 0.6);
     const Vec3 v = crate.linearVelocity;
     runFor(*sim, 0.5);
