@@ -1,7 +1,10 @@
 // Cloth, soft bodies and ropes as built by the builders: structure, statics, contact with colliders, wind.
 
+#include "components/particles.h"
+#include "components/rigid_body.h"
 #include "components/spring_network.h"
 #include "engine/name.h"
+#include "engine/random.h"
 #include "engine/run_report.h"
 #include "systems/collision_system.h"
 #include "systems/spring_builders.h"
@@ -10,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 namespace tumble {
 namespace {
@@ -203,6 +207,59 @@ TEST(Collisions, ShapesReportDistanceAndNormal) {
     EXPECT_EQ(n, (Vec3{1, 0, 0}));
     EXPECT_DOUBLE_EQ(signedDistance(wide, {0.5, 9.5, 0}, n), -0.5) << "near the top: out through the end";
     EXPECT_EQ(n, (Vec3{0, 1, 0}));
+}
+
+TEST(Collisions, AmongManyBodiesNothingEndsInsideAny) {
+    // 60 static bodies of every bounded shape at random turns, 0.8 m apart on a grid (no two touching, so
+    // that nothing is wedged), more than the few tried one by one (the bodies near each point come from a
+    // hierarchy of their boxes), a shower of particles and a cloth
+    // falling through them: after every step no particle is inside any body and no mass of the cloth within
+    // half its thickness of one, judged against every body one by one
+    std::string text = "[scene]\nname = \"many\"\ndt = 0.01\n";
+    Rng rng(12);
+    const char* shapes[] = {"box", "sphere", "capsule", "cylinder"};
+    for (int k = 0; k < 60; ++k) {
+        const double a = rng.uniform(0, 3.14), c = std::cos(a / 2), s = std::sin(a / 2);
+        Vec3 axis{rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)};
+        axis = axis * (1.0 / length(axis));
+        const char* size = k % 4 == 0   ? "half_extents = [0.3, 0.1, 0.2]"
+                           : k % 4 == 1 ? "radius = 0.15"
+                                        : "radius = 0.15\nheight = 0.3";
+        char buf[512];
+        std::snprintf(buf, sizeof buf,
+                      "[[entity]]\nname = \"b%d\"\n[entity.transform]\nposition = [%.6f, %.6f, %.6f]\n"
+                      "[entity.rigid_body]\nshape = \"%s\"\n%s\norientation = [%.9f, %.9f, %.9f, %.9f]\n",
+                      k, -1.6 + 0.8 * (k % 5), 0.5 + 0.8 * (k / 20), -1.2 + 0.8 * ((k / 5) % 4), shapes[k % 4],
+                      size, axis.x * s, axis.y * s, axis.z * s, c);
+        text += buf;
+    }
+    text += "[[entity]]\nname = \"shower\"\n[entity.transform]\nposition = [0, 3, 0]\n[entity.emitter]\n"
+            "rate = 20000.0\nshape = \"box\"\nhalf_extents = [1.5, 0.1, 1.5]\ndirection = [0, -1, 0]\n"
+            "speed = [1.0, 3.0]\nlifetime = [3.0, 3.0]\nmax_particles = 20000\nrestitution = 0.3\n"
+            "[[entity]]\nname = \"sheet\"\n[entity.transform]\nposition = [0, 2.8, 0]\n[entity.cloth]\n"
+            "rows = 20\ncols = 20\nsize = [3.0, 3.0]\nplane = \"xz\"\nthickness = 0.01\n";
+    {
+        FILE* f = std::fopen("/tmp/many.toml", "w");
+        std::fputs(text.c_str(), f);
+        std::fclose(f);
+    }
+    auto sim = makeSimulation(text);
+    for (int step = 0; step < 120; ++step) {
+        sim->runFrame();
+        const ParticlePool& p = test::component<ParticleEmitter>(*sim, "shower").pool;
+        const SpringNetwork& net = network(*sim, "sheet");
+        sim->world().view<const RigidBody>().each([&](Entity, const RigidBody& body) {
+            Vec3 n;
+            for (std::uint32_t i = 0; i < p.count; ++i) {
+                ASSERT_GE(signedDistance(body, {p.px[i], p.py[i], p.pz[i]}, n), -1e-6) << "step " << step;
+            }
+            for (std::size_t i = 0; i < net.x.size(); ++i) {
+                // (a mass wedged between two bodies at a sharp angle is left a little short of the
+                // thickness by the passes' cap, as before the hierarchy: never inside)
+                ASSERT_GE(signedDistance(body, net.x[i], n), 0.5 * net.thickness) << "step " << step;
+            }
+        });
+    }
 }
 
 class DrapeOver : public ::testing::TestWithParam<std::string> {};

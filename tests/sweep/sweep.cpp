@@ -83,6 +83,18 @@ std::string scenario(std::uint64_t seed) {
     if (rng.uniform() < 0.5) {
         s << "[[entity]]\nname = \"ground\"\n[entity.rigid_body]\nshape = \"plane\"\n";
     }
+    if (rng.uniform() < 0.02) {
+        // a long line of bodies by `repeat` (sorted along a line, they once made Bullet's tree degenerate:
+        // 30,000 took 13 s to add)
+        const double r = scale * logUniform(rng, 1e-3, 0.5);
+        const bool twoD = rng.uniform() < 0.3;
+        s << "[[entity]]\nname = \"line\"\nrepeat = { count = " << intIn(rng, 1000, 20000)
+          << ", offset = " << vec3(r * logUniform(rng, 0.5, 4.0), 0.0, 0.0)
+          << " }\n[entity.transform]\nposition = " << vec3(0.0, r * 2.0, 0.0) << "\n"
+          << (twoD ? "[entity.rigid_body_2d]\nshape = \"circle\"\n"
+                   : "[entity.rigid_body]\nshape = \"sphere\"\n")
+          << "radius = " << num(r) << "\nmass = " << num(logUniform(rng, 1e-3, 1e3)) << "\n";
+    }
     for (int e = 0; e < entities; ++e) {
         const std::string kind = crowd ? crowdKind
                                        : pick(rng, {"rope", "cloth", "softbody", "emitter", "sphere", "box",
