@@ -68,10 +68,10 @@ std::vector<std::string> inputFields(const nlohmann::json& j, const Fail& fail) 
     std::vector<std::string> present;
     for (const auto& [key, value] : j.items()) {
         const bool field = key == "value" || key == "position" || key == "radius" || key == "amount";
-        if (!field && key != "frame" && key != "t" && key != "entity" && key != "action") {
+        if (!field && key != "frame" && key != "t" && key != "entity" && key != "action" && key != "key") {
             fail("unknown key '" + key +
                  "'; an action has frame or t, entity, action, value, position, "
-                 "radius, amount");
+                 "radius, amount (a set: frame or t, action, key, value)");
         }
         if (field) {
             present.push_back(key);
@@ -80,10 +80,17 @@ std::vector<std::string> inputFields(const nlohmann::json& j, const Fail& fail) 
     if (j.contains("frame") == j.contains("t")) {
         fail("an action needs exactly one of 'frame' and 't'");
     }
-    for (const char* key : {"entity", "action"}) {
+    const bool set = j.contains("action") && j["action"] == "set";
+    for (const char* key : {set ? "key" : "entity", "action"}) {
         if (!j.contains(key) || !j[key].is_string()) {
             fail(std::string("an action needs '") + key + "', a string");
         }
+    }
+    if (set && (j.contains("entity") || !j.contains("value"))) {
+        fail("a set names what it sets in 'key' (curtain.cloth.stretch) and gives a 'value'; no 'entity'");
+    }
+    if (!set && j.contains("key")) {
+        fail("only a set takes 'key'");
     }
     return present;
 }
@@ -157,8 +164,14 @@ std::vector<EventDef> readInputEvents(const std::string& path, const Simulation&
         const std::vector<std::string> present = inputFields(j, fail);
         EventDef ev;
         ev.step = inputStep(j, sim.scene(), fail);
-        ev.entity = j["entity"].get<std::string>();
         ev.action = j["action"].get<std::string>();
+        if (ev.action == "set") {
+            // checked with the run's other set events once they are all known (prepareEvents)
+            ev.set = j["key"].get<std::string>() + "=" + j["value"].dump();
+            events.push_back(std::move(ev));
+            continue;
+        }
+        ev.entity = j["entity"].get<std::string>();
         readInputFields(j, ev, fail);
         if (auto problem = resolveEvent(sim.catalog(), sim.world(), ev, present)) {
             fail(*problem);
@@ -306,6 +319,18 @@ void RunSession::prepareEvents() {
         std::erase_if(input, [&](const EventDef& ev) { return ev.step < m_src.resume * m_substeps; });
         m_sim->addEvents(input);
     }
+    // set events that did not come from the scenario file: checked with every set of the run, in order
+    const std::vector<EventDef>& events = m_sim->pendingEvents();
+    if (std::any_of(events.begin(), events.end(),
+                    [](const EventDef& ev) { return ev.action == "set" && ev.line == 0; })) {
+        if (auto problem = m_sim->checkSetEvents(events)) {
+            if (m_src.replay) {
+                throw ReplayError(m_src.replayPath, 0,
+                                  "a recorded set does not fit its scenario: " + *problem);
+            }
+            throw ScenarioError(m_o.input, 0, 0, *problem);
+        }
+    }
 }
 
 /// The replay's events, each checked to belong to the frame it was filed under and to fit the scenario.
@@ -319,9 +344,11 @@ std::vector<EventDef> RunSession::recordedEvents() const {
                                       " is filed under frame " + std::to_string(f + 1));
             }
             std::vector<std::string> present;
-            if (auto problem = resolveEvent(m_catalog, m_sim->world(), ev, present)) {
-                throw ReplayError(m_src.replayPath, 0,
-                                  "a recorded event does not fit its scenario: " + *problem);
+            if (ev.action != "set") {
+                if (auto problem = resolveEvent(m_catalog, m_sim->world(), ev, present)) {
+                    throw ReplayError(m_src.replayPath, 0,
+                                      "a recorded event does not fit its scenario: " + *problem);
+                }
             }
             events.push_back(std::move(ev));
         }

@@ -58,6 +58,7 @@ struct RigidBody {
     Vec3 impulse;             ///< N s at the centre of mass, applied and cleared at the next step
     Vec3 angularImpulse;      ///< N m s about the centre of mass, likewise
     bool teleported = false;  ///< pose or velocities set from outside: the bridge copies them in
+    bool retuned = false;     ///< mass, material or sleep set from outside: the bridge gives them to Bullet
 
     bool dynamic() const { return mass > 0.0; }
     /// A point of the body's frame in world space.

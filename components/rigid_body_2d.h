@@ -42,6 +42,7 @@ struct RigidBody2D {
     Vec2 impulse{0.0, 0.0};      ///< N s at the centre, applied and cleared at the next step
     double angularImpulse = 0.0; ///< N m s, likewise
     bool teleported = false;
+    bool retuned = false; ///< mass, material or sleep set from outside: the bridge gives them to Box2D
 
     bool dynamic() const { return mass > 0.0; }
 };

@@ -19,4 +19,15 @@ std::vector<std::string> Catalog::componentKeys() const {
     return out;
 }
 
+const Retune* Catalog::findRetune(std::string_view key) const {
+    for (const Retune& r : m_retunes) {
+        for (const std::string& k : r.keys) {
+            if (k == key) {
+                return &r;
+            }
+        }
+    }
+    return nullptr;
+}
+
 } // namespace tumble

@@ -46,6 +46,17 @@ struct EventAction {
     std::function<void(World&, Entity, const EventDef&)> apply; ///< run at the start of the event's step
 };
 
+/// How a `set` event (engine/retune.h) reaches one kind of component of a live entity. `before` and `after`
+/// are the scenario's worlds loaded without and with the change; an entity in them has the live one's name.
+struct Retune {
+    std::vector<std::string> keys; ///< the component keys (scenario tables) whose settings it takes
+    std::function<bool(const World&, Entity)> has;
+    /// A message when what differs between before and after cannot change during a run.
+    std::function<std::optional<std::string>(const World& before, Entity, const World& after, Entity)> check;
+    /// Writes into the live component what differs between before and after (and nothing else).
+    std::function<void(World& live, Entity, const World& before, Entity, const World& after, Entity)> patch;
+};
+
 /// Resolves an entity named by a key of a table (a joint's `a`, `b`): the entity, the null entity when the
 /// key is absent and not required, or a failure that names the key, the table and the nearest name.
 using EntityLookup = std::function<Entity(TableReader& reader, std::string_view key, bool required)>;
@@ -71,6 +82,7 @@ public:
     void addEventAction(EventAction action) { m_actions.push_back(std::move(action)); }
     void setJointLoader(JointLoader loader) { m_jointLoader = std::move(loader); }
     void addSystem(SystemEntry system) { m_systems.push_back(std::move(system)); }
+    void addRetune(Retune retune) { m_retunes.push_back(std::move(retune)); }
 
     /// A state codec for component type T from a dump and a hash function of the component.
     template <class T>
@@ -87,12 +99,16 @@ public:
     const std::vector<EventAction>& actions() const { return m_actions; }
     const std::vector<SystemEntry>& systems() const { return m_systems; }
     const JointLoader& jointLoader() const { return m_jointLoader; }
+    const std::vector<Retune>& retunes() const { return m_retunes; }
+    /// The retune of a component key ("cloth"), or null when none takes it.
+    const Retune* findRetune(std::string_view key) const;
 
 private:
     std::vector<ComponentLoader> m_components;
     std::vector<StateCodec> m_states;
     std::vector<EventAction> m_actions;
     std::vector<SystemEntry> m_systems;
+    std::vector<Retune> m_retunes;
     JointLoader m_jointLoader;
 };
 

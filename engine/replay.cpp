@@ -58,6 +58,7 @@ void putEvent(std::string& out, const EventDef& ev) {
     }
     put(out, ev.radius);
     put(out, ev.amount);
+    putString(out, ev.set);
 }
 
 // ---- reading
@@ -131,6 +132,7 @@ EventDef getEvent(Cursor& c) {
     }
     ev.radius = getNumber(c, "an event's radius");
     ev.amount = getNumber(c, "an event's amount");
+    ev.set = c.string("a set event's KEY=VALUE");
     return ev;
 }
 

@@ -8,7 +8,7 @@
 //            kFramesPerChunk frames, flushed, so a crash or a kill leaves every chunk but the last whole
 //            payload: u64 first frame, u32 frames, u32 names declared here, each (u32 id, name, kind);
 //            then per frame: u32 events, each (u64 step, entity, action, u32 k, k f64 value, 3 f64
-//            position, f64 radius, f64 amount); u64 state hash; u32 entities, each (u32 id, u64 hash)
+//            position, f64 radius, f64 amount, set); u64 state hash; u32 entities, each (u32 id, u64 hash)
 //   end      "ENDR", u64 frames, u64 checksum of those 8 bytes: the recording finished
 //
 // Strings are u32 length + bytes. Every chunk's payload is checksummed and its length is written twice (the
@@ -69,9 +69,10 @@ struct ReplayFile {
     std::uint64_t fileBytes = 0;
 };
 
-/// Goes up whenever the simulated bits change (2: the multicolour smoother of large cloths; 3: the implicit
-/// solver's rows summed in two partials, for its AVX2 kernels), so that a replay of other physics is refused
-/// with a message rather than failing to verify.
+/// Goes up whenever the simulated bits or the layout change (2: the multicolour smoother of large cloths; 3:
+/// the implicit solver's rows summed in two partials for its AVX2 kernels, keyed particle births, the `set`
+/// event's KEY=VALUE in every event), so that another version's replay is refused with a message rather than
+/// failing to verify.
 inline constexpr std::uint32_t kReplayVersion = 3;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 

@@ -1,5 +1,7 @@
 #include "engine/scenario.h"
 
+#include "engine/retune.h"
+
 #include "engine/name.h"
 #include "engine/random.h"
 #include "engine/transform.h"
@@ -65,9 +67,11 @@ toml::table* findEntityTable(toml::table& root, std::string_view name) {
     return nullptr;
 }
 
-void applyOverride(toml::table& root, const std::string& spec, LoadContext& ctx) {
+/// Applies KEY=VALUE to the tree; `how` ("--set", "set") begins the messages that quote it.
+void applyOverride(toml::table& root, const std::string& spec, const char* how, LoadContext& ctx) {
     // messages quote the override, shortened: a long value need not be echoed whole
-    const std::string origin = "--set " + (spec.size() > 100 ? spec.substr(0, 100) + "..." : spec);
+    const std::string origin =
+        std::string(how) + " " + (spec.size() > 100 ? spec.substr(0, 100) + "..." : spec);
     const auto eq = spec.find('=');
     if (eq == std::string::npos || eq == 0) {
         throw ScenarioError(ctx.file, 0, 0, origin + ": expected KEY=VALUE, e.g. scene.dt=0.005");
@@ -501,6 +505,31 @@ std::uint64_t firstStepReaching(double at, double dt) {
                                                                                        : std::ceil(s));
 }
 
+/// A `set` event's own keys: `key` (what --set takes as KEY) and `value` (any TOML value), no entity.
+void readSetEvent(TableReader& r, EventDef& ev) {
+    ev.action = r.requiredString("action");
+    // The key is the one --set takes (scene.gravity, curtain.cloth.stretch); with 'entity' it may leave out
+    // the entity's name (entity = "curtain", key = "cloth.stretch").
+    std::string key = r.requiredString("key");
+    if (r.has("entity")) {
+        const std::string entity = r.requiredString("entity");
+        if (key.rfind(entity + ".", 0) != 0) {
+            key = entity + "." + key;
+        }
+    }
+    const toml::node* value = r.node("value");
+    if (!value) {
+        r.fail("key", "a 'set' event needs a 'value' (a number, true/false, [array] or \"string\")");
+    }
+    if (value->is_table()) {
+        r.fail("value", "a 'set' event's 'value' is one value, not a table");
+    }
+    std::ostringstream text; // as TOML writes it: a string quoted, an array bracketed
+    value->visit([&](auto&& n) { text << n; });
+    ev.set = key + "=" + text.str();
+    r.finish();
+}
+
 std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
                                  const SceneDef& scene, const World& world,
                                  const std::map<std::string, Entity>& byName) {
@@ -530,6 +559,13 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
         } else {
             ev.step = static_cast<std::uint64_t>(r.integer("frame", 0, 0, 1'000'000'000)) *
                       static_cast<std::uint64_t>(scene.substeps);
+        }
+        ev.line = int(item.source().begin.line);
+        ev.column = int(item.source().begin.column);
+        if (r.has("action") && r.node("action")->value_or(std::string_view{}) == "set") {
+            readSetEvent(r, ev);
+            events.push_back(std::move(ev));
+            continue;
         }
         ev.entity = r.requiredString("entity");
         const auto found = byName.find(ev.entity);
@@ -619,8 +655,13 @@ std::string readScenarioFile(const std::string& path) {
     return text;
 }
 
-Scenario loadScenario(const Catalog& catalog, const std::string& path, std::string text,
-                      const std::vector<std::string>& overrides, World& world, std::uint64_t memoryCap) {
+namespace {
+
+/// The loader: the overrides (--set), then `sets` (set events before the one being checked or applied), then
+/// every table; the scenario's set events are checked (engine/retune.h) when `checkSets`.
+Scenario load(const Catalog& catalog, const std::string& path, std::string text,
+              const std::vector<std::string>& overrides, const std::vector<std::string>& sets, World& world,
+              std::uint64_t memoryCap, bool checkSets) {
     Scenario sc;
     sc.path = path;
     sc.text = std::move(text);
@@ -636,7 +677,10 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
     }
     toml::table root = parseText(path, sc.text);
     for (const std::string& o : overrides) {
-        applyOverride(root, o, ctx);
+        applyOverride(root, o, "--set", ctx);
+    }
+    for (const std::string& o : sets) {
+        applyOverride(root, o, "set", ctx);
     }
 
     // top-level keys
@@ -656,7 +700,33 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
     readEntities(root, ctx, catalog, sc.scene, world, byName);
     readJoints(root, ctx, catalog, sc.scene, world, byName);
     sc.events = readEvents(root, ctx, catalog, sc.scene, world, byName);
+    if (checkSets) {
+        // each set event, in the order they apply, against the scenario with the ones before it
+        std::vector<std::string> earlier;
+        for (const EventDef& ev : sc.events) {
+            if (ev.action != "set") {
+                continue;
+            }
+            if (auto problem = checkSet(catalog, sc, earlier, ev.set, memoryCap)) {
+                throw ScenarioError(path, ev.line, ev.column, *problem);
+            }
+            earlier.push_back(ev.set);
+        }
+    }
     return sc;
+}
+
+} // namespace
+
+Scenario loadScenario(const Catalog& catalog, const std::string& path, std::string text,
+                      const std::vector<std::string>& overrides, World& world, std::uint64_t memoryCap) {
+    return load(catalog, path, std::move(text), overrides, {}, world, memoryCap, true);
+}
+
+Scenario loadScenarioWithSets(const Catalog& catalog, const std::string& path, std::string text,
+                              const std::vector<std::string>& overrides, const std::vector<std::string>& sets,
+                              World& world, std::uint64_t memoryCap) {
+    return load(catalog, path, std::move(text), overrides, sets, world, memoryCap, false);
 }
 
 SceneDef peekScene(const std::string& path, const std::string& text) {

@@ -40,6 +40,12 @@ Scenario loadScenario(const Catalog& catalog, const std::string& path, std::stri
                       const std::vector<std::string>& overrides, World& world,
                       std::uint64_t memoryCap = kDefaultMemoryCap);
 
+/// loadScenario with `sets` applied after the overrides, as `set` events apply them (messages name each
+/// as "set KEY=VALUE"), and the scenario's own set events not checked: for engine/retune.h's scratch loads.
+Scenario loadScenarioWithSets(const Catalog& catalog, const std::string& path, std::string text,
+                              const std::vector<std::string>& overrides, const std::vector<std::string>& sets,
+                              World& world, std::uint64_t memoryCap);
+
 /// Reads only [scene] name and description, for `tumble list`. Throws ScenarioError.
 SceneDef peekScene(const std::string& path, const std::string& text);
 

@@ -3,6 +3,7 @@
 #include "engine/dump.h"
 #include "engine/float_mode.h"
 #include "engine/json.h"
+#include "engine/retune.h"
 #include "engine/run_report.h"
 
 #include <algorithm>
@@ -10,37 +11,53 @@
 
 namespace tumble {
 
-namespace {
+namespace {} // namespace
 
-/// Applies the events due at this step, in file order.
-void applyEvents(World& world, const StepContext& ctx, const Catalog& catalog) {
-    EventQueue& queue = world.resource<EventQueue>();
+void Simulation::applyEvents(const StepContext& ctx) {
+    EventQueue& queue = m_world.resource<EventQueue>();
     while (queue.next < queue.events.size() && queue.events[queue.next].step <= ctx.step) {
         const EventDef& ev = queue.events[queue.next++];
-        // the loader resolved the entity and the action; the entity may have been destroyed since
-        if (world.alive(ev.target)) {
-            catalog.actions()[ev.actionIndex].apply(world, ev.target, ev);
+        if (ev.action == "set") {
+            // checked when it was loaded, against the sets before it (engine/retune.h)
+            applySet(m_catalog, m_scenario, m_sets, ev.set, m_memoryCap, m_world, m_scenario.scene);
+            m_sets.push_back(ev.set);
+            m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
+        } else if (m_world.alive(ev.target)) {
+            // the loader resolved the entity and the action; the entity may have been destroyed since
+            m_catalog.actions()[ev.actionIndex].apply(m_world, ev.target, ev);
         }
         queue.applied.push_back(ev);
     }
 }
 
-} // namespace
+std::optional<std::string> Simulation::checkSetEvents(const std::vector<EventDef>& events) const {
+    std::vector<std::string> earlier;
+    for (const EventDef& ev : events) {
+        if (ev.action != "set") {
+            continue;
+        }
+        if (auto problem = checkSet(m_catalog, m_scenario, earlier, ev.set, m_memoryCap)) {
+            return problem;
+        }
+        earlier.push_back(ev.set);
+    }
+    return std::nullopt;
+}
 
 Simulation::Simulation(const Catalog& catalog, const std::string& path, std::string text,
                        const std::vector<std::string>& overrides, std::uint64_t memoryCap, int threads)
     : m_catalog(catalog), m_pool(std::make_unique<WorkerPool>(threads > 0 ? threads : defaultThreadCount())),
       m_schedule(m_profiler),
       m_scenario(loadScenario(catalog, path, std::move(text), overrides, m_world, memoryCap)),
-      m_loop(secondsToNs(m_scenario.scene.dt), m_scenario.scene.substeps) {
+      m_loop(secondsToNs(m_scenario.scene.dt), m_scenario.scene.substeps), m_memoryCap(memoryCap) {
     m_profiler.setPhysicsBudgetMs(m_scenario.scene.physicsBudgetMs);
     m_world.setResource<SceneDef>(m_scenario.scene);
     m_world.setResource<RunReport>();
     m_world.setResource<EventQueue>(EventQueue{m_scenario.events, 0, {}});
     // the event actions touch whatever the catalog's systems registered them for: nothing runs beside
     m_schedule.add(
-        Phase::Input, "events",
-        [&catalog](World& w, const StepContext& ctx) { applyEvents(w, ctx, catalog); }, Access::everything());
+        Phase::Input, "events", [this](World&, const StepContext& ctx) { applyEvents(ctx); },
+        Access::everything());
     for (const SystemEntry& s : catalog.systems()) {
         m_schedule.add(s.phase, s.name, s.fn, s.access);
     }
@@ -118,6 +135,10 @@ void Simulation::addEvents(const std::vector<EventDef>& events) {
                      [](const EventDef& a, const EventDef& b) { return a.step < b.step; });
     queue.events = std::move(merged);
     queue.next = 0;
+}
+
+const std::vector<EventDef>& Simulation::pendingEvents() {
+    return m_world.resource<EventQueue>().events;
 }
 
 std::vector<EventDef> Simulation::takeAppliedEvents() {

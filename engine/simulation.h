@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,8 +60,13 @@ public:
     void setEvents(std::vector<EventDef> events);
     /// Adds events (resolved) to those still to come, after any due at the same step.
     void addEvents(const std::vector<EventDef>& events);
+    /// The run's events, those applied and those to come, in the order they apply.
+    const std::vector<EventDef>& pendingEvents();
     /// The events applied since the last call, in the order applied.
     std::vector<EventDef> takeAppliedEvents();
+    /// Whether the `set` events among these (in the order they apply, from the start of the run) can be set:
+    /// a message for the first that cannot (engine/retune.h). For events not from the scenario file.
+    std::optional<std::string> checkSetEvents(const std::vector<EventDef>& events) const;
 
     const Scenario& scenario() const { return m_scenario; }
     const SceneDef& scene() const { return m_scenario.scene; }
@@ -92,6 +98,10 @@ private:
     void runSteps(int steps, double alpha);
     std::uint64_t m_step = 0;
     StepContext m_ctx; ///< the frame being run
+    std::uint64_t m_memoryCap;
+    std::vector<std::string> m_sets; ///< the set events applied so far, in order (each retune loads them)
+    /// The input phase's "events" system: applies the events due at this step, in file order.
+    void applyEvents(const StepContext& ctx);
 };
 
 /// The budget summary (README, "Budgets"), as JSON.

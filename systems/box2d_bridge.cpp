@@ -238,6 +238,19 @@ void addBodiesAndApplyPushes(World& world, Box2DWorld::Impl& impl) {
         if (!b.dynamic()) {
             return;
         }
+        if (b.retuned) {
+            // a set event changed its mass or material (engine/retune.h)
+            const double area = shapeArea2D(b);
+            for (b2Fixture* f = body.GetFixtureList(); f; f = f->GetNext()) {
+                f->SetFriction(float(b.friction));
+                f->SetRestitution(float(b.restitution));
+                f->SetDensity(area > 0.0 ? float(b.mass / area) : 0.0f);
+            }
+            body.ResetMassData();
+            body.SetSleepingAllowed(b.canSleep);
+            body.SetAwake(true);
+            b.retuned = false;
+        }
         if (b.teleported) {
             body.SetTransform(b2(b.position), float(b.angle));
             body.SetLinearVelocity(b2(b.velocity));
@@ -283,6 +296,19 @@ void box2dSyncIn(World& world, const StepContext&) {
     if (!impl) {
         return; // no 2D bodies: no Box2D world
     }
+    // the scene's gravity and iterations, which a set event may change during a run
+    const SceneDef& scene = world.resource<SceneDef>();
+    const b2Vec2 g(float(scene.gravity[0]), float(scene.gravity[1]));
+    if (impl->world.GetGravity() != g) {
+        impl->world.SetGravity(g);
+        for (BodySlot& b : impl->bodies) {
+            if (b.body) {
+                b.body->SetAwake(true);
+            }
+        }
+    }
+    impl->velocityIterations = scene.velocityIterations;
+    impl->positionIterations = scene.positionIterations;
     removeDeadJoints(world, *impl);
     removeDeadBodies(world, *impl);
     addBodiesAndApplyPushes(world, *impl);

@@ -387,6 +387,18 @@ void addBodiesAndApplyPushes(World& world, BulletWorld::Impl& impl) {
         if (!b.dynamic()) {
             return;
         }
+        if (b.retuned) {
+            // a set event changed its mass, material or sleep (engine/retune.h)
+            btVector3 inertia(0, 0, 0);
+            body.getCollisionShape()->calculateLocalInertia(btScalar(b.mass), inertia);
+            body.setMassProps(btScalar(b.mass), inertia);
+            body.updateInertiaTensor();
+            body.setFriction(btScalar(b.friction));
+            body.setRestitution(btScalar(b.restitution));
+            body.forceActivationState(b.canSleep ? ACTIVE_TAG : DISABLE_DEACTIVATION);
+            body.activate(true);
+            b.retuned = false;
+        }
         if (b.teleported) {
             body.setWorldTransform(btTransform(bt(b.orientation), bt(b.position)));
             body.setLinearVelocity(bt(b.linearVelocity));

@@ -2,6 +2,7 @@
 
 #include "engine/name.h"
 #include "engine/random.h"
+#include "engine/retune.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
 
@@ -72,6 +73,21 @@ void updateForceFields(World& world, const StepContext& ctx) {
 
 void registerForceFieldSystem(Catalog& catalog) {
     catalog.addComponent({"force_field", loadForceField});
+    // a `set` event on a field's keys (engine/retune.h): any of its settings
+    catalog.addRetune(Retune{
+        {"force_field"},
+        [](const World& w, Entity e) { return w.has<ForceField>(e); },
+        [](const World&, Entity, const World&, Entity) -> std::optional<std::string> { return std::nullopt; },
+        [](World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
+            ForceField& f = w.get<ForceField>(e);
+            const ForceField &was = bw.get<ForceField>(b), &now = aw.get<ForceField>(a);
+            takeChanged(f.kind, was.kind, now.kind);
+            takeChanged(f.strength, was.strength, now.strength);
+            takeChanged(f.gust, was.gust, now.gust);
+            takeChanged(f.coefficient, was.coefficient, now.coefficient);
+            takeChanged(f.axis, was.axis, now.axis);
+            takeChanged(f.radius, was.radius, now.radius);
+        }});
 }
 
 } // namespace tumble

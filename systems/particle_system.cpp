@@ -3,6 +3,7 @@
 #include "components/force_field.h"
 #include "engine/name.h"
 #include "engine/parallel.h"
+#include "engine/retune.h"
 #include "engine/scene.h"
 #include "engine/simd.h"
 #include "engine/transform.h"
@@ -464,9 +465,57 @@ void updateParticles(World& world, const StepContext& ctx) {
     });
 }
 
+namespace {
+
+/// The fraction of a birth owed at the old rate carries over to the new one.
+void setRate(ParticleEmitter& em, double rate, double dt) {
+    em.rateCarry = em.rateCarry + em.def.rate * (double(em.rateSteps) * dt) - double(em.rateBorn);
+    em.def.rate = rate;
+    em.rateSteps = 0;
+    em.rateBorn = 0;
+}
+
+/// A `set` event on an emitter's keys (engine/retune.h): every setting but the size of its pool.
+Retune emitterRetune() {
+    auto check = [](const World& bw, Entity b, const World& aw, Entity a) -> std::optional<std::string> {
+        if (bw.get<ParticleEmitter>(b).def.maxParticles != aw.get<ParticleEmitter>(a).def.maxParticles) {
+            return std::string(
+                "emitter.max_particles cannot change during a run (the pool is reserved at load)");
+        }
+        return std::nullopt;
+    };
+    auto patch = [](World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
+        ParticleEmitter& live = w.get<ParticleEmitter>(e);
+        const EmitterDef &was = bw.get<ParticleEmitter>(b).def, &now = aw.get<ParticleEmitter>(a).def;
+        EmitterDef& d = live.def;
+        takeChanged(d.shape, was.shape, now.shape);
+        takeChanged(d.radius, was.radius, now.radius);
+        takeChanged(d.halfExtents, was.halfExtents, now.halfExtents);
+        takeChanged(d.direction, was.direction, now.direction);
+        takeChanged(d.spreadDeg, was.spreadDeg, now.spreadDeg);
+        takeChanged(d.burst, was.burst, now.burst);
+        takeChanged(d.lifetime, was.lifetime, now.lifetime);
+        takeChanged(d.speed, was.speed, now.speed);
+        takeChanged(d.drag, was.drag, now.drag);
+        takeChanged(d.collide, was.collide, now.collide);
+        takeChanged(d.restitution, was.restitution, now.restitution);
+        takeChanged(d.friction, was.friction, now.friction);
+        takeChanged(d.colorStart, was.colorStart, now.colorStart);
+        takeChanged(d.colorEnd, was.colorEnd, now.colorEnd);
+        takeChanged(d.size, was.size, now.size);
+        if (was.rate != now.rate) {
+            setRate(live, now.rate, ctxDt(w));
+        }
+    };
+    return Retune{{"emitter"}, hasEmitter, check, patch};
+}
+
+} // namespace
+
 void registerParticleSystem(Catalog& catalog) {
     catalog.addComponent({"emitter", loadEmitter});
     catalog.addState<ParticleEmitter>("particles", dumpEmitter, hashEmitter);
+    catalog.addRetune(emitterRetune());
     // burst: value = [count], or the emitter's own burst size
     catalog.addEventAction({"burst",
                             "a particle emitter",
@@ -517,14 +566,7 @@ void registerParticleSystem(Catalog& catalog) {
                                 return std::nullopt;
                             },
                             [](World& w, Entity e, const EventDef& ev) {
-                                auto& em = w.get<ParticleEmitter>(e);
-                                // the fraction of a birth owed at the old rate carries over to the new one
-                                em.rateCarry = em.rateCarry +
-                                               em.def.rate * (double(em.rateSteps) * ctxDt(w)) -
-                                               double(em.rateBorn);
-                                em.def.rate = ev.value[0];
-                                em.rateSteps = 0;
-                                em.rateBorn = 0;
+                                setRate(w.get<ParticleEmitter>(e), ev.value[0], ctxDt(w));
                             }});
 }
 

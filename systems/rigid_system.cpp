@@ -5,6 +5,7 @@
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
 #include "engine/profiler.h"
+#include "engine/retune.h"
 #include "engine/transform.h"
 #include "systems/box2d_bridge.h"
 #include "systems/bullet_bridge.h"
@@ -496,6 +497,57 @@ void registerRigidEvents(Catalog& catalog) {
                             }});
 }
 
+/// A `set` event on a body's keys (engine/retune.h): its mass, material, sleep and colour, and where it is
+/// and how it moves (a teleport); not its shape, nor whether it moves at all.
+template <class Body>
+Retune bodyRetune(const char* key) {
+    auto check = [](const World& bw, Entity b, const World& aw, Entity a) -> std::optional<std::string> {
+        const Body &was = bw.get<Body>(b), &now = aw.get<Body>(a);
+        if (was.dynamic() != now.dynamic()) {
+            return std::string("a body cannot start or stop moving during a run (mass 0 is static)");
+        }
+        bool sameShape =
+            was.shape == now.shape && was.halfExtents == now.halfExtents && was.radius == now.radius;
+        if constexpr (std::is_same_v<Body, RigidBody>) {
+            sameShape =
+                sameShape && was.height == now.height && was.mesh == now.mesh && was.normal == now.normal;
+        } else {
+            sameShape = sameShape && was.vertices == now.vertices && was.from == now.from && was.to == now.to;
+        }
+        if (!sameShape) {
+            return std::string("a body's shape cannot change during a run; its mass, friction, restitution, "
+                               "sleep, colour, place and velocities can");
+        }
+        return std::nullopt;
+    };
+    auto patch = [](World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
+        Body& body = w.get<Body>(e);
+        const Body &was = bw.get<Body>(b), &now = aw.get<Body>(a);
+        body.retuned = body.retuned || was.mass != now.mass || was.friction != now.friction ||
+                       was.restitution != now.restitution || was.canSleep != now.canSleep;
+        takeChanged(body.mass, was.mass, now.mass);
+        takeChanged(body.friction, was.friction, now.friction);
+        takeChanged(body.restitution, was.restitution, now.restitution);
+        takeChanged(body.canSleep, was.canSleep, now.canSleep);
+        takeChanged(body.color, was.color, now.color);
+        // place and motion (the transform, orientation or angle, velocities): the body jumps there
+        bool moved = was.position != now.position || was.angularVelocity != now.angularVelocity;
+        takeChanged(body.position, was.position, now.position);
+        takeChanged(body.angularVelocity, was.angularVelocity, now.angularVelocity);
+        if constexpr (std::is_same_v<Body, RigidBody>) {
+            moved = moved || was.linearVelocity != now.linearVelocity || was.orientation != now.orientation;
+            takeChanged(body.linearVelocity, was.linearVelocity, now.linearVelocity);
+            takeChanged(body.orientation, was.orientation, now.orientation);
+        } else {
+            moved = moved || was.velocity != now.velocity || was.angle != now.angle;
+            takeChanged(body.velocity, was.velocity, now.velocity);
+            takeChanged(body.angle, was.angle, now.angle);
+        }
+        body.teleported = body.teleported || moved;
+    };
+    return Retune{{key}, [](const World& w, Entity e) { return w.has<Body>(e); }, check, patch};
+}
+
 } // namespace
 
 void registerRigidSystem(Catalog& catalog) {
@@ -504,6 +556,8 @@ void registerRigidSystem(Catalog& catalog) {
     catalog.setJointLoader(loadJoint);
     catalog.addState<RigidBody>("rigid", dumpRigid, hashRigid);
     catalog.addState<RigidBody2D>("rigid2d", dumpRigid2D, hashRigid2D);
+    catalog.addRetune(bodyRetune<RigidBody>("rigid_body"));
+    catalog.addRetune(bodyRetune<RigidBody2D>("rigid_body_2d"));
     registerRigidEvents(catalog);
 }
 

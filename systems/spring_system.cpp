@@ -4,6 +4,7 @@
 #include "engine/name.h"
 #include "engine/parallel.h"
 #include "engine/random.h"
+#include "engine/retune.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
@@ -527,11 +528,70 @@ void integrateSprings(World& world, const StepContext& ctx) {
     }
 }
 
+namespace {
+
+/// Whether two loads of a network have the same masses, links and surface: what a set event must keep.
+std::optional<std::string> sameShape(const SpringNetwork& b, const SpringNetwork& a) {
+    bool same = b.kind == a.kind && b.x.size() == a.x.size() && b.links.size() == a.links.size() &&
+                b.triangles == a.triangles && b.grid == a.grid && b.anchors.size() == a.anchors.size();
+    for (std::size_t k = 0; same && k < b.links.size(); ++k) {
+        same = b.links[k].a == a.links[k].a && b.links[k].b == a.links[k].b;
+    }
+    if (!same) {
+        return std::string("a network's masses and springs cannot change during a run (rows, cols, segments, "
+                           "resolution, masses, links, the bend springs' presence); its stiffness, damping, "
+                           "masses' weight, pins and the like can");
+    }
+    if (b.selfCollision != a.selfCollision) {
+        return std::string("cloth.self_collision cannot change during a run");
+    }
+    return std::nullopt;
+}
+
+/// A `set` event on a network's keys (engine/retune.h): what differs between the two loads, per mass and
+/// per link (a cloth's `stretch` reaches its structural springs alone); a moved transform moves the masses.
+void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
+    SpringNetwork& net = w.get<SpringNetwork>(e);
+    const SpringNetwork &was = bw.get<SpringNetwork>(b), &now = aw.get<SpringNetwork>(a);
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        takeChanged(net.invMass[i], was.invMass[i], now.invMass[i]);
+        takeChanged(net.pinned[i], was.pinned[i], now.pinned[i]);
+    }
+    for (std::size_t k = 0; k < net.links.size(); ++k) {
+        takeChanged(net.links[k].rest, was.links[k].rest, now.links[k].rest);
+        takeChanged(net.links[k].k, was.links[k].k, now.links[k].k);
+        takeChanged(net.links[k].kd, was.links[k].kd, now.links[k].kd);
+    }
+    takeChanged(net.drag, was.drag, now.drag);
+    takeChanged(net.integrator, was.integrator, now.integrator);
+    takeChanged(net.thickness, was.thickness, now.thickness);
+    takeChanged(net.friction, was.friction, now.friction);
+    takeChanged(net.cgTolerance, was.cgTolerance, now.cgTolerance);
+    takeChanged(net.cgMaxIterations, was.cgMaxIterations, now.cgMaxIterations);
+    takeChanged(net.doublePrecisionSolve, was.doublePrecisionSolve, now.doublePrecisionSolve);
+    takeChanged(net.implicitCharged, was.implicitCharged, now.implicitCharged);
+    takeChanged(net.blowUpFails, was.blowUpFails, now.blowUpFails);
+    const Vec3 moved = aw.get<Transform>(a).position - bw.get<Transform>(b).position;
+    if (moved != Vec3{}) {
+        for (Vec3& x : net.x) {
+            x += moved;
+        }
+    }
+}
+
+} // namespace
+
 void registerSpringSystem(Catalog& catalog) {
     catalog.addComponent({"springs", loadSprings});
     catalog.addComponent({"rope", loadRope});
     catalog.addComponent({"cloth", loadCloth});
     catalog.addComponent({"softbody", loadSoftBody});
+    catalog.addRetune(Retune{{"springs", "rope", "cloth", "softbody"},
+                             hasSprings,
+                             [](const World& bw, Entity b, const World& aw, Entity a) {
+                                 return sameShape(bw.get<SpringNetwork>(b), aw.get<SpringNetwork>(a));
+                             },
+                             patchNetwork});
     catalog.addState(StateCodec{
         "springs", hasSprings,
         [](const World& w, Entity e, JsonWriter& out) { dumpNetwork(w.get<SpringNetwork>(e), out); },

@@ -4,6 +4,7 @@
 #include "engine/name.h"
 #include "engine/parallel.h"
 #include "engine/profiler.h"
+#include "engine/retune.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
@@ -366,6 +367,28 @@ void stepWater(World& world, const StepContext& ctx) {
 void registerWaterSystem(Catalog& catalog) {
     catalog.addComponent({"water", loadWater});
     catalog.addState<Water>("water", dumpWater, hashWater);
+    // a `set` event on the water's keys (engine/retune.h): its physics, not its grid
+    catalog.addRetune(Retune{
+        {"water"},
+        [](const World& w, Entity e) { return w.has<Water>(e); },
+        [](const World& bw, Entity b, const World& aw, Entity a) -> std::optional<std::string> {
+            const Water &was = bw.get<Water>(b), &now = aw.get<Water>(a);
+            if (was.nx != now.nx || was.nz != now.nz || was.sizeX != now.sizeX || was.sizeZ != now.sizeZ ||
+                was.border != now.border || was.centre != now.centre) {
+                return std::string("a water surface's grid (cells, size, border, place) cannot change during "
+                                   "a run; its wave_speed, damping, depth, density and drag can");
+            }
+            return std::nullopt;
+        },
+        [](World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
+            Water& water = w.get<Water>(e);
+            const Water &was = bw.get<Water>(b), &now = aw.get<Water>(a);
+            takeChanged(water.depth, was.depth, now.depth);
+            takeChanged(water.waveSpeed, was.waveSpeed, now.waveSpeed);
+            takeChanged(water.damping, was.damping, now.damping);
+            takeChanged(water.density, was.density, now.density);
+            takeChanged(water.bodyDrag, was.bodyDrag, now.bodyDrag);
+        }});
     // disturb: a smooth bump of `amount` metres (negative: a dip) within `radius` of `position`
     catalog.addEventAction(
         {"disturb",

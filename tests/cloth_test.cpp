@@ -229,8 +229,8 @@ TEST(Collisions, AmongManyBodiesNothingEndsInsideAny) {
         std::snprintf(buf, sizeof buf,
                       "[[entity]]\nname = \"b%d\"\n[entity.transform]\nposition = [%.6f, %.6f, %.6f]\n"
                       "[entity.rigid_body]\nshape = \"%s\"\n%s\norientation = [%.9f, %.9f, %.9f, %.9f]\n",
-                      k, -1.6 + 0.8 * (k % 5), 0.5 + 0.8 * (k / 20), -1.2 + 0.8 * ((k / 5) % 4), shapes[k % 4],
-                      size, axis.x * s, axis.y * s, axis.z * s, c);
+                      k, -1.6 + 0.8 * (k % 5), 0.5 + 0.8 * (k / 20), -1.2 + 0.8 * ((k / 5) % 4),
+                      shapes[k % 4], size, axis.x * s, axis.y * s, axis.z * s, c);
         text += buf;
     }
     text += "[[entity]]\nname = \"shower\"\n[entity.transform]\nposition = [0, 3, 0]\n[entity.emitter]\n"

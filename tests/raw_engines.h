@@ -32,8 +32,8 @@ inline std::string stackScene(int side, int layers, bool sleep = true) {
             s += "[[entity]]\nname = \"c" + std::to_string(i) + "_" + std::to_string(k) +
                  "\"\nrepeat = { count = " + std::to_string(layers) +
                  ", offset = [0, 1, 0] }\n[entity.transform]\nposition = [" + std::to_string(i - side / 2) +
-                 ", 0.5, " + std::to_string(k - side / 2) + "]\n[entity.rigid_body]\nshape = \"box\"\nmass = 1.0\n" +
-                 (sleep ? "" : "sleep = false\n");
+                 ", 0.5, " + std::to_string(k - side / 2) +
+                 "]\n[entity.rigid_body]\nshape = \"box\"\nmass = 1.0\n" + (sleep ? "" : "sleep = false\n");
         }
     }
     return s;
@@ -57,7 +57,8 @@ struct BulletStack {
         for (int i = 0; i < side; ++i) {
             for (int k = 0; k < side; ++k) {
                 for (int j = 0; j < layers; ++j) {
-                    add(&box, 1.0, btVector3(btScalar(i - side / 2), btScalar(0.5 + j), btScalar(k - side / 2)));
+                    add(&box, 1.0,
+                        btVector3(btScalar(i - side / 2), btScalar(0.5 + j), btScalar(k - side / 2)));
                 }
             }
         }
@@ -89,7 +90,8 @@ struct BulletStack {
         for (std::size_t i = 1; i < bodies.size(); ++i) {
             const btTransform& t = bodies[i]->getWorldTransform();
             const btQuaternion q = t.getRotation();
-            for (btScalar v : {t.getOrigin().x(), t.getOrigin().y(), t.getOrigin().z(), q.x(), q.y(), q.z(), q.w()}) {
+            for (btScalar v :
+                 {t.getOrigin().x(), t.getOrigin().y(), t.getOrigin().z(), q.x(), q.y(), q.z(), q.w()}) {
                 out.push_back(double(v));
             }
         }
@@ -118,8 +120,8 @@ inline std::string pyramidScene(int base) {
     for (int row = 0; row < base; ++row) {
         const int n = base - row;
         s += "[[entity]]\nname = \"r" + std::to_string(row) + "\"\nrepeat = { count = " + std::to_string(n) +
-             ", offset = [1, 0, 0] }\n[entity.transform]\nposition = [" + std::to_string(-0.5 * (n - 1)) + ", " +
-             std::to_string(0.5 + row) + ", 0]\n[entity.rigid_body_2d]\nshape = \"box\"\nmass = 1.0\n";
+             ", offset = [1, 0, 0] }\n[entity.transform]\nposition = [" + std::to_string(-0.5 * (n - 1)) +
+             ", " + std::to_string(0.5 + row) + ", 0]\n[entity.rigid_body_2d]\nshape = \"box\"\nmass = 1.0\n";
     }
     return s;
 }

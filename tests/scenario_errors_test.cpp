@@ -377,6 +377,58 @@ std::vector<BadCase> cases() {
          3,
          "[render] (8192 x 8192 frames) needs about 1.5 GiB"},
         // found measuring the loader: a 400x400 self-colliding sheet 1 m across took 9 GiB and ten minutes a
+        // the set event: the same schema as --set, located at the event, and what a run cannot take
+        {"set_event_misspelt_key",
+         kScene + kBob +
+             "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.stifness\"\nvalue = 5.0\n",
+         {},
+         8,
+         "set bob.springs.stifness=5.0: unknown key 'stifness' in entity 'bob' [springs] (did you mean "
+         "'stiffness'?)"},
+        {"set_event_value_out_of_range",
+         kScene + kBob +
+             "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.stiffness\"\nvalue = -3\n",
+         {},
+         8,
+         "set bob.springs.stiffness=-3: 'stiffness' in entity 'bob' [springs] is -3, outside"},
+        {"set_event_changes_the_masses",
+         kScene + kBob + "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.links\"\nvalue = []\n",
+         {},
+         8,
+         "a network's masses and springs cannot change during a run"},
+        {"set_event_changes_dt",
+         kScene + kBob + "[[event]]\nframe = 3\naction = \"set\"\nkey = \"scene.dt\"\nvalue = 0.01\n",
+         {},
+         8,
+         "scene.dt and scene.substeps cannot change during a run"},
+        {"set_event_with_entity_keys_within_it",
+         kScene + kBob +
+             "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"set\"\nkey = \"springs.stifness\"\nvalue = "
+             "1\n",
+         {},
+         8,
+         "set bob.springs.stifness=1: unknown key 'stifness' in entity 'bob' [springs]"},
+        {"set_event_without_value",
+         kScene + kBob + "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.drag\"\n",
+         {},
+         11,
+         "a 'set' event needs a 'value'"},
+        {"set_event_repeat",
+         kScene + kBob + "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.repeat\"\nvalue = 3\n",
+         {},
+         8,
+         "'repeat' cannot change during a run"},
+        {"set_event_adds_a_component",
+         kScene + kBob + "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.water.depth\"\nvalue = 3\n",
+         {},
+         8,
+         "set bob.water.depth=3"},
+        {"key_on_another_action",
+         kScene + kBob +
+             "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"pin\"\nvalue = [1]\nkey = \"x\"\n",
+         {},
+         13,
+         "unknown key 'key'"},
         // step, every vertex facing hundreds of triangles within the thickness
         {"self_collision_thicker_than_spacing",
          kScene +

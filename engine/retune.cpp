@@ -1,0 +1,168 @@
+#include "engine/retune.h"
+
+#include "engine/name.h"
+#include "engine/transform.h"
+
+#include <map>
+
+namespace tumble {
+
+namespace {
+
+/// The scenario loaded with the overrides and `sets` into a world of its own.
+struct Scratch {
+    World world;
+    Scenario scenario;
+    std::map<std::string, Entity> byName;
+
+    Scratch(const Catalog& catalog, const Scenario& sc, const std::vector<std::string>& sets,
+            std::uint64_t memoryCap)
+        : scenario(loadScenarioWithSets(catalog, sc.path, sc.text, sc.overrides, sets, world, memoryCap)) {
+        for (Entity e : world.entities()) {
+            if (const Name* n = world.tryGet<Name>(e)) {
+                byName[n->value] = e;
+            }
+        }
+    }
+};
+
+std::string quoted(const std::string& spec) {
+    return "set " + (spec.size() > 100 ? spec.substr(0, 100) + "..." : spec);
+}
+
+/// A scene setting that differs between the two loads and cannot change during a run, if any.
+std::optional<std::string> fixedSceneSetting(const SceneDef& a, const SceneDef& b) {
+    if (a.dt != b.dt || a.substeps != b.substeps) {
+        return std::string("scene.dt and scene.substeps cannot change during a run (its events and replay "
+                           "count in its steps)");
+    }
+    if (a.name != b.name || a.description != b.description || a.frames != b.frames || a.seed != b.seed ||
+        a.stress != b.stress) {
+        return std::string("scene.name, description, frames and seed, and budget.stress, hold for the "
+                           "whole run");
+    }
+    if (a.renderWidth != b.renderWidth || a.renderHeight != b.renderHeight) {
+        return std::string("render.width and render.height cannot change during a run (the frames and "
+                           "video keep one size)");
+    }
+    return std::nullopt;
+}
+
+/// The scene settings that differ between the two loads, written into `live`.
+void patchScene(SceneDef& live, const SceneDef& before, const SceneDef& after) {
+    auto take = [](auto& to, const auto& was, const auto& now) {
+        if (was != now) {
+            to = now;
+        }
+    };
+    take(live.gravity, before.gravity, after.gravity);
+    take(live.solverIterations, before.solverIterations, after.solverIterations);
+    take(live.velocityIterations, before.velocityIterations, after.velocityIterations);
+    take(live.positionIterations, before.positionIterations, after.positionIterations);
+    take(live.sleepLinear, before.sleepLinear, after.sleepLinear);
+    take(live.sleepAngularDeg, before.sleepAngularDeg, after.sleepAngularDeg);
+    take(live.sleepTime, before.sleepTime, after.sleepTime);
+    take(live.physicsBudgetMs, before.physicsBudgetMs, after.physicsBudgetMs);
+    take(live.cameraEye, before.cameraEye, after.cameraEye);
+    take(live.cameraTarget, before.cameraTarget, after.cameraTarget);
+    take(live.cameraFovDeg, before.cameraFovDeg, after.cameraFovDeg);
+    take(live.background, before.background, after.background);
+}
+
+/// The component key a KEY=VALUE names (the second part of entity.component.key), or "" for a section.
+std::string componentKey(const std::string& spec) {
+    const std::string key = spec.substr(0, spec.find('='));
+    const auto first = key.find('.');
+    if (first == std::string::npos) {
+        return "";
+    }
+    const std::string head = key.substr(0, first);
+    if (head == "scene" || head == "budget" || head == "camera" || head == "render") {
+        return "";
+    }
+    const auto second = key.find('.', first + 1);
+    return key.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1);
+}
+
+} // namespace
+
+std::optional<std::string> checkSet(const Catalog& catalog, const Scenario& scenario,
+                                    const std::vector<std::string>& earlier, const std::string& spec,
+                                    std::uint64_t memoryCap) {
+    const std::string component = componentKey(spec);
+    if (!component.empty() && component != "transform" && !catalog.findRetune(component)) {
+        return quoted(spec) + ": '" + component +
+               "' cannot change during a run (a set event changes a component's settings: "
+               "transform, or a component such as cloth, emitter, rigid_body)";
+    }
+    // the loads: a bad key or value fails here with the loader's own message, naming the set
+    std::vector<std::string> with = earlier;
+    with.push_back(spec);
+    std::optional<Scratch> before, after;
+    try {
+        before.emplace(catalog, scenario, earlier, memoryCap);
+        after.emplace(catalog, scenario, with, memoryCap);
+    } catch (const ScenarioError& e) {
+        return e.message();
+    }
+    if (auto fixed = fixedSceneSetting(before->scenario.scene, after->scenario.scene)) {
+        return quoted(spec) + ": " + *fixed;
+    }
+    if (before->byName.size() != after->byName.size()) {
+        return quoted(spec) + ": it would add or remove entities, which a running scene cannot";
+    }
+    for (const auto& [name, b] : before->byName) {
+        const auto found = after->byName.find(name);
+        if (found == after->byName.end()) {
+            return quoted(spec) + ": it would add or remove entities, which a running scene cannot";
+        }
+        const Entity a = found->second;
+        for (const Retune& r : catalog.retunes()) {
+            if (r.has(before->world, b) != r.has(after->world, a)) {
+                return quoted(spec) + ": it would add or remove a component of '" + name +
+                       "', which a running scene cannot";
+            }
+            if (!r.has(before->world, b)) {
+                continue;
+            }
+            if (auto problem = r.check(before->world, b, after->world, a)) {
+                return quoted(spec) + ": " + *problem;
+            }
+        }
+    }
+    return std::nullopt;
+}
+
+void applySet(const Catalog& catalog, const Scenario& scenario, const std::vector<std::string>& earlier,
+              const std::string& spec, std::uint64_t memoryCap, World& live, SceneDef& scene) {
+    std::vector<std::string> with = earlier;
+    with.push_back(spec);
+    const Scratch before(catalog, scenario, earlier, memoryCap), after(catalog, scenario, with, memoryCap);
+    patchScene(scene, before.scenario.scene, after.scenario.scene);
+    patchScene(live.resource<SceneDef>(), before.scenario.scene, after.scenario.scene);
+    for (Entity e : live.entities()) {
+        const Name* name = live.tryGet<Name>(e);
+        if (!name) {
+            continue;
+        }
+        const auto b = before.byName.find(name->value), a = after.byName.find(name->value);
+        if (b == before.byName.end() || a == after.byName.end()) {
+            continue;
+        }
+        // the components first (they may look at how the entity's transform changed), then the transform
+        for (const Retune& r : catalog.retunes()) {
+            if (r.has(live, e) && r.has(before.world, b->second)) {
+                r.patch(live, e, before.world, b->second, after.world, a->second);
+            }
+        }
+        const Transform* tb = before.world.tryGet<Transform>(b->second);
+        const Transform* ta = after.world.tryGet<Transform>(a->second);
+        if (Transform* t = live.tryGet<Transform>(e); t && tb && ta) {
+            if (tb->position != ta->position) {
+                t->position = ta->position;
+            }
+        }
+    }
+}
+
+} // namespace tumble

@@ -1,0 +1,199 @@
+// The `set` event (engine/retune.h): at its step it changes what its key names and nothing else, in every
+// kind of component and in the scene; what a run has changed since the start stays; and it is recorded:
+// a replay of a run with set events (from the scenario or from --input) verifies.
+
+#include "components/particles.h"
+#include "components/rigid_body.h"
+#include "components/spring_network.h"
+#include "components/water.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace tumble {
+namespace {
+
+using test::component;
+using test::makeSimulation;
+
+void run(Simulation& sim, int frames) {
+    for (int i = 0; i < frames; ++i) {
+        sim.runFrame();
+    }
+}
+
+TEST(SetEvent, GravityTurnsAtItsStep) {
+    // a free mass falls for 30 steps under -10, then rises under +10: symplectic Euler's velocity is
+    // -10 dt times the steps before the set plus 10 dt times the steps after, to rounding
+    auto sim = makeSimulation(R"(
+[scene]
+name = "flip"
+dt = 0.01
+gravity = [0, -10, 0]
+[[entity]]
+name = "ball"
+[entity.springs]
+masses = [ { x = [0, 0, 0] } ]
+[[event]]
+frame = 30
+action = "set"
+key = "scene.gravity"
+value = [0, 10, 0]
+)");
+    run(*sim, 30);
+    EXPECT_NEAR(component<SpringNetwork>(*sim, "ball").v[0].y, -3.0, 1e-12);
+    run(*sim, 50);
+    EXPECT_NEAR(component<SpringNetwork>(*sim, "ball").v[0].y, 2.0, 1e-12);
+    EXPECT_EQ(sim->world().resource<SceneDef>().gravity[1], 10.0);
+}
+
+const char* kCurtain = R"(
+[scene]
+name = "c"
+[[entity]]
+name = "sheet"
+[entity.transform]
+position = [0, 2, 0]
+[entity.cloth]
+rows = 6
+cols = 6
+stretch = 5000.0
+shear = 500.0
+bend = 50.0
+pin = "top-row"
+)";
+
+TEST(SetEvent, AClothsStretchReachesItsStructuralSpringsAloneAndKeepsARunsUnpin) {
+    auto sim = makeSimulation(std::string(kCurtain) + R"(
+[[event]]
+frame = 2
+entity = "sheet"
+action = "unpin"
+value = [0]
+[[event]]
+frame = 4
+action = "set"
+key = "sheet.cloth.stretch"
+value = 9000.0
+)");
+    run(*sim, 4);
+    const SpringNetwork before = component<SpringNetwork>(*sim, "sheet");
+    ASSERT_FALSE(before.pinned[0]) << "unpinned at frame 2";
+    run(*sim, 1);
+    const SpringNetwork& after = component<SpringNetwork>(*sim, "sheet");
+    int changed = 0;
+    for (std::size_t k = 0; k < after.links.size(); ++k) {
+        if (before.links[k].k == 5000.0) {
+            EXPECT_EQ(after.links[k].k, 9000.0) << "link " << k;
+            ++changed;
+        } else {
+            EXPECT_EQ(after.links[k].k, before.links[k].k) << "shear and bend keep theirs";
+        }
+        EXPECT_EQ(after.links[k].rest, before.links[k].rest);
+    }
+    EXPECT_EQ(changed, 2 * 6 * 5) << "the structural springs of a 6 x 6 grid";
+    EXPECT_FALSE(after.pinned[0]) << "the set of stretch does not pin back what the run unpinned";
+    EXPECT_TRUE(after.pinned[1]);
+}
+
+TEST(SetEvent, MovingATransformMovesTheClothAndTheWaterKeepsItsGridButTakesItsSpeed) {
+    auto sim = makeSimulation(std::string(kCurtain) + R"(
+[[entity]]
+name = "pond"
+[entity.water]
+cells = [16, 16]
+wave_speed = 2.0
+[[event]]
+frame = 3
+action = "set"
+key = "sheet.transform.position"
+value = [1, 2, 0]
+[[event]]
+frame = 3
+action = "set"
+key = "pond.water.wave_speed"
+value = 3.0
+)");
+    run(*sim, 3);
+    const std::vector<Vec3> x = component<SpringNetwork>(*sim, "sheet").x;
+    sim->runFrame();
+    const SpringNetwork& net = component<SpringNetwork>(*sim, "sheet");
+    EXPECT_NEAR(net.x[0].x, x[0].x + 1.0, 1e-12) << "a pinned mass moves with the transform";
+    EXPECT_EQ(component<Water>(*sim, "pond").waveSpeed, 3.0);
+}
+
+TEST(SetEvent, ABodysMassAndAnEmittersRateChangeLive) {
+    auto sim = makeSimulation(R"(
+[scene]
+name = "m"
+dt = 0.01
+gravity = [0, 0, 0]
+[[entity]]
+name = "crate"
+[entity.rigid_body]
+shape = "box"
+mass = 1.0
+[[entity]]
+name = "spout"
+[entity.emitter]
+rate = 100.0
+lifetime = [100.0, 100.0]
+collide = false
+[[event]]
+frame = 10
+action = "set"
+key = "crate.rigid_body.mass"
+value = 4.0
+[[event]]
+frame = 10
+entity = "spout"
+action = "set"
+key = "emitter.rate"
+value = 300.0
+[[event]]
+frame = 12
+entity = "crate"
+action = "impulse"
+value = [2.0, 0, 0]
+)");
+    run(*sim, 10);
+    EXPECT_EQ(component<ParticleEmitter>(*sim, "spout").born, 10u);
+    run(*sim, 10);
+    // 3 a step from step 10 on; an impulse of 2 N s on 4 kg
+    EXPECT_EQ(component<ParticleEmitter>(*sim, "spout").born, 40u);
+    EXPECT_NEAR(component<RigidBody>(*sim, "crate").linearVelocity.x, 0.5, 1e-6);
+}
+
+TEST(SetEvent, ARunWithSetEventsReplaysBitForBit) {
+    // from the scenario and from --input: both are recorded, and the replay verifies
+    const std::string scenario = test::writeTemp("set_replay.toml", std::string(kCurtain) + R"(
+[[event]]
+frame = 5
+action = "set"
+key = "sheet.cloth.bend"
+value = 400.0
+)");
+    const std::string input =
+        test::writeTemp("set_replay.jsonl", "{\"frame\": 8, \"action\": \"set\", \"key\": \"scene.gravity\", "
+                                            "\"value\": [1.0, -9.81, 0.0]}\n");
+    const std::string replay = test::tempPath("set_replay.tumble");
+    auto r = test::runTumble({"run", scenario, "--frames", "20", "--no-render", "--quiet", "--input", input,
+                              "--record", replay, "--out", test::tempPath("set_out")});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = test::runTumble(
+        {"replay", replay, "--verify", "--no-render", "--quiet", "--out", test::tempPath("set_v")});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    // a bad set from --input is refused like the scenario's
+    const std::string bad =
+        test::writeTemp("set_bad.jsonl",
+                        "{\"frame\": 8, \"action\": \"set\", \"key\": \"sheet.cloth.rows\", \"value\": 9}\n");
+    r = test::runTumble({"run", scenario, "--frames", "20", "--no-render", "--quiet", "--input", bad, "--out",
+                         test::tempPath("set_bad")});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find("masses and springs cannot change during a run"), std::string::npos) << r.err;
+}
+
+} // namespace
+} // namespace tumble
