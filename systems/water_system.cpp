@@ -46,6 +46,18 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
     w.bodyDrag = r.number("drag", 0.5, 0.0, 1e4);
     w.border = r.choice("border", "reflect", {"reflect", "absorb"}) == "reflect" ? WaterBorder::Reflect
                                                                                  : WaterBorder::Absorb;
+    if (const toml::table* maker = r.subtable("wave_maker")) {
+        TableReader m(*maker, r.where() + " wave_maker", r.context());
+        const std::string edge = m.choice("edge", "-x", {"-x", "+x", "-z", "+z"});
+        w.maker.edge = edge == "-x" ? 0 : edge == "+x" ? 1 : edge == "-z" ? 2 : 3;
+        w.maker.amplitude = m.number("amplitude", 0.1, 0.0, 1e3);
+        w.maker.period = m.number("period", 2.0, 1e-3, 1e6);
+        m.finish();
+        if (w.maker.amplitude >= w.depth && w.depth > 0.0) {
+            m.fail("amplitude", "a wave maker's amplitude must be below the water's depth (" +
+                                    std::to_string(w.depth) + " m)");
+        }
+    }
     w.centre = world.get<Transform>(entity).position;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
     // bounded work and memory: wave steps a fixed step from the CFL limit, nodes across the scene
@@ -78,7 +90,7 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
 /// One wave step of dt: v += dt (c^2 Lap(h) - damping v), then h += dt v (symplectic Euler), in one pass
 /// that writes the new heights beside the old (hNext, swapped with h after), so a row's new v and h need
 /// only the old h around it. Rows are shared out in chunks, so any thread count gives the same bits.
-void waveStep(Water& w, double dt, WorkerPool& pool) {
+void waveStep(Water& w, std::vector<double>& field, std::vector<double>& rate, double dt, WorkerPool& pool) {
     const int nx = w.nx, nz = w.nz;
     const double ax = w.waveSpeed * w.waveSpeed / (w.dx() * w.dx());
     const double az = w.waveSpeed * w.waveSpeed / (w.dz() * w.dz());
@@ -87,9 +99,9 @@ void waveStep(Water& w, double dt, WorkerPool& pool) {
     // inside; the rows at z's ends take it along z (the corners too), the other rows at x's ends along x
     const bool absorb = w.border == WaterBorder::Absorb;
     const double cx = w.waveSpeed / w.dx(), cz = w.waveSpeed / w.dz();
-    const double* h = w.h.data();
-    double* v = w.v.data();
-    w.hNext.resize(w.h.size());
+    const double* h = field.data();
+    double* v = rate.data();
+    w.hNext.resize(field.size());
     double* next = w.hNext.data();
     // rows per chunk: about 8k nodes, enough work to be worth a thread
     const std::size_t rowsPerChunk = std::max<std::size_t>(1, (std::size_t(1) << 13) / std::size_t(nx));
@@ -124,15 +136,74 @@ void waveStep(Water& w, double dt, WorkerPool& pool) {
             out[i] = row[i] + dt * vr[i];
         }
     });
-    std::swap(w.h, w.hNext);
+    std::swap(field, w.hNext);
 }
 
-/// The vertical extent of a body's column at world (x, z), and how much of the node's cell it covers, or
-/// false when the column misses it. Spheres by the node's point; other shapes by their world-aligned
-/// bounding box, with the cell's covered share (exact for an upright box).
-bool columnOf(const RigidBody& b, double x, double z, double halfDx, double halfDz, double& bottom,
-              double& top, double& cover) {
-    cover = 1.0;
+/// The wave maker's edge at time t: its height and rate, eased in over the first period (so the first
+/// crest does not start with a jump), on every node of its edge.
+void driveEdge(const Water& w, std::vector<double>& field, std::vector<double>& rate, double t) {
+    const WaveMaker& m = w.maker;
+    const double omega = 2.0 * std::numbers::pi / m.period;
+    double ease = 1.0, easeRate = 0.0;
+    if (t < m.period) {
+        ease = 0.5 * (1.0 - std::cos(std::numbers::pi * t / m.period));
+        easeRate = 0.5 * std::numbers::pi / m.period * std::sin(std::numbers::pi * t / m.period);
+    }
+    const double height = m.amplitude * ease * std::sin(omega * t);
+    const double speed = m.amplitude * (easeRate * std::sin(omega * t) + ease * omega * std::cos(omega * t));
+    const bool alongZ = m.edge < 2; // the edges at x's ends run along z
+    const int count = alongZ ? w.nz : w.nx;
+    for (int j = 0; j < count; ++j) {
+        const std::size_t n = alongZ ? std::size_t(j) * w.nx + (m.edge == 0 ? 0 : w.nx - 1)
+                                     : std::size_t(m.edge == 2 ? 0 : w.nz - 1) * w.nx + j;
+        field[n] = height;
+        rate[n] = speed;
+    }
+}
+
+/// Clips the interval [lo, hi] of the line p + t u (t along it) to the slab |p_a + t u_a| <= e on one axis.
+bool clipSlab(double p, double u, double e, double& lo, double& hi) {
+    if (std::abs(u) < 1e-12) {
+        return std::abs(p) <= e;
+    }
+    const double t1 = (-e - p) / u, t2 = (e - p) / u;
+    lo = std::max(lo, std::min(t1, t2));
+    hi = std::min(hi, std::max(t1, t2));
+    return lo <= hi;
+}
+
+/// Clips [lo, hi] to where the line p + t u is within r of the body's y axis (an infinite cylinder).
+bool clipRound(const Vec3& p, const Vec3& u, double r, double& lo, double& hi) {
+    const double a = u.x * u.x + u.z * u.z, b = p.x * u.x + p.z * u.z, c = p.x * p.x + p.z * p.z - r * r;
+    if (a < 1e-12) {
+        return c <= 0.0;
+    }
+    const double disc = b * b - a * c;
+    if (disc < 0.0) {
+        return false;
+    }
+    const double root = std::sqrt(disc);
+    lo = std::max(lo, (-b - root) / a);
+    hi = std::min(hi, (-b + root) / a);
+    return lo <= hi;
+}
+
+/// Where the unit-direction line p + t u meets a ball of radius r about c: [lo, hi], or false.
+bool ballSpan(const Vec3& p, const Vec3& u, const Vec3& c, double r, double& lo, double& hi) {
+    const Vec3 q = p - c;
+    const double b = dot(q, u), disc = b * b - (dot(q, q) - r * r);
+    if (disc < 0.0) {
+        return false;
+    }
+    lo = -b - std::sqrt(disc);
+    hi = -b + std::sqrt(disc);
+    return true;
+}
+
+/// The vertical extent of a body along the world's vertical line through (x, z): its bottom and top (world
+/// y), or false when the line misses it. Exact for every shape (a tilted box's column is shorter at one
+/// end than the other, which is what rights it); a hull is clipped by the planes of its faces.
+bool verticalExtent(const RigidBody& b, double x, double z, double& bottom, double& top) {
     if (b.shape == ShapeKind::Sphere) {
         const double dx = x - b.position.x, dz = z - b.position.z, d2 = dx * dx + dz * dz;
         if (d2 >= b.radius * b.radius) {
@@ -143,42 +214,72 @@ bool columnOf(const RigidBody& b, double x, double z, double halfDx, double half
         top = b.position.y + half;
         return true;
     }
-    Vec3 local;
+    // the line in the body's frame: through p (the point at world height 0), along u (world up); a point at
+    // parameter t on it is at world height t
+    const Vec3 p = b.toLocal({x, 0.0, z});
+    const Vec3 u = rotate(conjugate(b.orientation), Vec3{0.0, 1.0, 0.0});
+    double lo = -1e300, hi = 1e300;
     switch (b.shape) {
     case ShapeKind::Box:
-        local = b.halfExtents;
-        break;
-    case ShapeKind::Capsule:
-        local = {b.radius, 0.5 * b.height + b.radius, b.radius};
+        if (!clipSlab(p.x, u.x, b.halfExtents.x, lo, hi) || !clipSlab(p.y, u.y, b.halfExtents.y, lo, hi) ||
+            !clipSlab(p.z, u.z, b.halfExtents.z, lo, hi)) {
+            return false;
+        }
         break;
     case ShapeKind::Cylinder:
-        local = {b.radius, 0.5 * b.height, b.radius};
+        if (!clipRound(p, u, b.radius, lo, hi) || !clipSlab(p.y, u.y, 0.5 * b.height, lo, hi)) {
+            return false;
+        }
         break;
-    case ShapeKind::Convex:
-        local = {std::max(-b.mesh->lo.x, b.mesh->hi.x), std::max(-b.mesh->lo.y, b.mesh->hi.y),
-                 std::max(-b.mesh->lo.z, b.mesh->hi.z)};
+    case ShapeKind::Capsule: {
+        // the straight part and the two end balls: the capsule is convex, so their spans join into one
+        bool any = false;
+        double l = lo, h = hi;
+        if (clipRound(p, u, b.radius, l, h) && clipSlab(p.y, u.y, 0.5 * b.height, l, h)) {
+            lo = l;
+            hi = h;
+            any = true;
+        } else {
+            lo = 1e300;
+            hi = -1e300;
+        }
+        for (double end : {-0.5 * b.height, 0.5 * b.height}) {
+            if (ballSpan(p, u, Vec3{0.0, end, 0.0}, b.radius, l, h)) {
+                lo = std::min(lo, l);
+                hi = std::max(hi, h);
+                any = true;
+            }
+        }
+        if (!any) {
+            return false;
+        }
         break;
+    }
+    case ShapeKind::Convex: {
+        const ShapeMesh& m = *b.mesh;
+        for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+            const Vec3& n = m.faceNormals[f];
+            const double along = dot(n, u), room = dot(n, m.vertices[m.triangles[f][0]] - p);
+            if (std::abs(along) < 1e-12) {
+                if (room < 0.0) {
+                    return false;
+                }
+            } else if (along > 0.0) {
+                hi = std::min(hi, room / along);
+            } else {
+                lo = std::max(lo, room / along);
+            }
+            if (lo > hi) {
+                return false;
+            }
+        }
+        break;
+    }
     default:
         return false;
     }
-    // the half extents of the rotated box, along the world axes
-    Vec3 e;
-    for (const Vec3& axis : {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}}) {
-        const Vec3 w = rotate(b.orientation, axis);
-        const double s = axis.x != 0 ? local.x : axis.y != 0 ? local.y : local.z;
-        e += Vec3{std::abs(w.x), std::abs(w.y), std::abs(w.z)} * s;
-    }
-    // how much of the node's cell (dx by dz about it) the box's footprint covers
-    auto overlap = [](double c, double half, double lo, double hi) {
-        return std::max(0.0, std::min(c + half, hi) - std::max(c - half, lo)) / (2.0 * half);
-    };
-    cover = overlap(x, halfDx, b.position.x - e.x, b.position.x + e.x) *
-            overlap(z, halfDz, b.position.z - e.z, b.position.z + e.z);
-    if (cover <= 0.0) {
-        return false;
-    }
-    bottom = b.position.y - e.y;
-    top = b.position.y + e.y;
+    bottom = lo;
+    top = hi;
     return true;
 }
 
@@ -232,14 +333,45 @@ double bodyVolume(const RigidBody& b) {
     }
 }
 
+/// A node's share of its cell inside the grid (1, a half on an edge, a quarter in a corner): the wave step
+/// keeps the sum of share x height between reflecting borders, so the water's volume is that sum x dx dz.
+double nodeShare(const Water& w, int i, int k) {
+    return (i == 0 || i == w.nx - 1 ? 0.5 : 1.0) * (k == 0 || k == w.nz - 1 ? 0.5 : 1.0);
+}
+
+/// The slope of the ambient surface at node (i, k): central differences, one-sided on the grid's edges.
+Vec3 ambientSlope(const Water& w, int i, int k) {
+    const double* a = w.ambient.data() + std::size_t(k) * w.nx;
+    const int il = std::max(i - 1, 0), ir = std::min(i + 1, w.nx - 1);
+    const int kl = std::max(k - 1, 0), kr = std::min(k + 1, w.nz - 1);
+    const double sx = (a[ir] - a[il]) / (w.dx() * (ir - il));
+    const double sz = (w.ambient[std::size_t(kr) * w.nx + i] - w.ambient[std::size_t(kl) * w.nx + i]) /
+                      (w.dz() * (kr - kl));
+    return {sx, 0.0, sz};
+}
+
 /// Buoyancy, drag and displacement between one water surface and the moving bodies in it.
+///
+/// Bodies float on the ambient surface (the waves they did not make), so that their own dent never lifts
+/// or sinks them: read from the surface they dent, a body fed back into itself (a sinking crate's trough
+/// sank it further; the displaced water piled around it pushed it out harder than it came in) and grew
+/// without bound. The body is cut into columns, four to a node's cell, each with its exact vertical extent
+/// (what rights a tilted box: its columns are deeper on its low side), and each column's
+/// submerged part is lifted by the weight of its water at its middle. The lift's response to the body's
+/// own motion is taken implicitly (the heave and tilt stiffness of the waterline, rho g times its area and
+/// its second moment) with the water moving along (added mass, half the submerged volume's water), so a
+/// body a thousand times lighter than water settles in a step instead of flying out: stable at any density
+/// ratio and step. Waves carry a body by the slope of the surface over it (the pressure gradient under a
+/// wave, g times the slope per unit of displaced mass). The water feels the body through its displacement:
+/// the water a body pushes aside leaves the nodes under it and raises the rest of the surface by as much.
 void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     std::vector<double>& now = w.occupying;
     const bool wasOccupied = w.anyOccupied; // `occupied` holds a share somewhere (else it is all zeros)
     if (!w.occupyingZero || now.size() != w.h.size()) {
         now.assign(w.h.size(), 0.0); // (kept clear while no body is in the water: a pass over the grid)
     }
-    const double area = w.dx() * w.dz();
+    const double area = w.dx() * w.dz(), sub = 0.25 * area; // a node's cell, a quarter of it
+    const double g = std::max(0.0, -gravity.y);             // the stiffness of the waterline: rho g
     bool touched = false; // whether any body reaches into the water this step
     world.view<RigidBody>().each([&](Entity, RigidBody& b) {
         if (!b.dynamic() || b.frozen) {
@@ -255,63 +387,107 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         const int k0 = std::max(0, index(std::floor((b.position.z - reach - w.nodeZ(0)) / w.dz()), w.nz));
         const int k1 =
             std::min(w.nz - 1, index(std::ceil((b.position.z + reach - w.nodeZ(0)) / w.dz()), w.nz));
-        double volume = 0.0;
-        Vec3 centre;
+        if (i0 > i1 || k0 > k1) {
+            return; // not over the water
+        }
+        if (w.ambient.empty()) {
+            // the first body over this water: so far every wave is the ambient's (no body has dented it)
+            w.ambient = w.h;
+            w.ambientV = w.v;
+            w.ambientStill = std::all_of(w.h.begin(), w.h.end(), [](double x) { return x == 0.0; }) &&
+                             std::all_of(w.v.begin(), w.v.end(), [](double x) { return x == 0.0; }) &&
+                             w.maker.edge < 0;
+        }
+        double volume = 0.0, waterline = 0.0, waterlineMoment = 0.0;
+        Vec3 centre, slope;
         for (int k = k0; k <= k1; ++k) {
             for (int i = i0; i <= i1; ++i) {
-                double bottom = 0.0, top = 0.0, cover = 1.0;
-                if (!columnOf(b, w.nodeX(i), w.nodeZ(k), 0.5 * w.dx(), 0.5 * w.dz(), bottom, top, cover)) {
-                    continue;
-                }
-                // bodies float on the still surface: their own dents and the waves they make do not lift
-                // them (read from the live surface, those fed back into the body and grew without bound)
                 const std::size_t n = std::size_t(k) * w.nx + i;
-                const double surface = w.centre.y;
-                const double under = std::clamp(surface - bottom, 0.0, top - bottom);
-                if (under <= 0.0) {
-                    continue;
+                const double surface = w.centre.y + w.ambient[n];
+                double under = 0.0; // the submerged length of this node's columns, their mean
+                for (const double fx : {-0.25, 0.25}) {
+                    for (const double fz : {-0.25, 0.25}) {
+                        const double x = w.nodeX(i) + fx * w.dx(), z = w.nodeZ(k) + fz * w.dz();
+                        double bottom = 0.0, top = 0.0;
+                        if (!verticalExtent(b, x, z, bottom, top)) {
+                            continue;
+                        }
+                        const double depth = std::clamp(surface - bottom, 0.0, top - bottom);
+                        if (depth <= 0.0) {
+                            continue;
+                        }
+                        under += 0.25 * depth;
+                        volume += depth * sub;
+                        centre += Vec3{x, bottom + 0.5 * depth, z} * (depth * sub);
+                        if (depth < top - bottom) { // the column crosses the surface: part of the waterline
+                            const double rx = x - b.position.x, rz = z - b.position.z;
+                            waterline += sub;
+                            waterlineMoment += sub * (rx * rx + rz * rz);
+                        }
+                    }
                 }
-                now[n] += under * cover;
-                touched = true;
-                volume += under * cover * area;
-                centre += Vec3{w.nodeX(i), bottom + 0.5 * under, w.nodeZ(k)} * (under * cover * area);
+                if (under > 0.0) {
+                    now[n] += under;
+                    touched = true;
+                    slope += ambientSlope(w, i, k) * (under * area);
+                }
             }
         }
         if (volume <= 0.0) {
             return;
         }
         centre = centre * (1.0 / volume);
-        // buoyancy: the weight of the water displaced, upwards, at the centre of that volume; drag on the
-        // motion through the water, in proportion to how much of the body is in it
-        const Vec3 lift = gravity * (-w.density * volume);
+        const double m = b.mass, added = 0.5 * w.density * volume;
+        const Vec3 lift = gravity * (-w.density * volume); // the weight of the water displaced
+        // heave, implicit in the waterline's stiffness k = rho g A, with the added mass: the velocity change
+        // of (m + added) dv = dt (m g + lift - k dt (v + dv)), less the gravity the rigid system adds itself
+        const double k = w.density * g * waterline;
+        const double dv =
+            (dt * (m * gravity.y + lift.y) - k * dt * dt * b.linearVelocity.y) / (m + added + k * dt * dt);
+        Vec3 impulse{0.0, m * dv - m * gravity.y * dt, 0.0};
+        // the pressure gradient under the waves: -rho g (slope) per unit of submerged volume, sharing the
+        // added mass; and lift along gravity's horizontal part, if it has one
+        const Vec3 push = slope * (-w.density * g) + Vec3{lift.x, 0.0, lift.z};
+        impulse += push * (dt * m / (m + added));
+        // drag as the exact decay of the step (stable at any strength), in proportion to how much of the body
+        // is in the water
         const double share = std::min(1.0, volume / bodyVolume(b));
-        // drag as the exact decay of the step (stable at any strength): the velocity through the water, and
-        // the turning (against the smallest moment of inertia the body could have, so never overshooting)
         const double decay = 1.0 - std::exp(-w.bodyDrag * share * dt);
-        b.impulse += lift * dt - b.linearVelocity * (decay * b.mass);
-        b.angularImpulse += cross(centre - b.position, lift * dt);
+        b.impulse += impulse - b.linearVelocity * (decay * m);
+        // the righting torque of the columns' lift about the centre of mass (none on a ball: its water
+        // pushes through its centre), implicit in the waterline's tilt stiffness rho g sum(a r^2), against
+        // the smallest moment of inertia the body could have (so it never overshoots)
         const double smallest = smallestHalfExtent(b);
-        b.angularImpulse -= b.angularVelocity * (decay * 0.4 * b.mass * smallest * smallest);
+        const double inertia = 0.4 * m * smallest * smallest;
+        if (b.shape != ShapeKind::Sphere) {
+            const Vec3 torque = cross(centre - b.position, lift);
+            const double kt = w.density * g * waterlineMoment;
+            const Vec3 tilting{b.angularVelocity.x, 0.0, b.angularVelocity.z};
+            b.angularImpulse +=
+                (torque * dt - tilting * (kt * dt * dt)) * (inertia / (inertia + kt * dt * dt));
+        }
+        b.angularImpulse -= b.angularVelocity * (decay * inertia);
     });
     // the water a body pushes aside as it sinks in leaves the nodes under it and raises the free surface
-    // everywhere else by as much in all (and flows back as the body rises): the volume is kept, and the dent
-    // under the body makes the waves. (Put into the ring of nodes around the body instead, a sinking crate
-    // raised spikes there that fed back into its buoyancy and grew without bound.)
+    // everywhere else by as much in all (and flows back as the body rises): the volume (the nodes' shares
+    // of their heights) is kept, and the dent under the body makes the waves
     w.occupyingZero = !touched;
     if (!touched && !wasOccupied) {
         return; // no body in the water, now or last step: nothing moves (the pass below would add zeros)
     }
     w.anyOccupied = touched;
-    double moved = 0.0;
-    std::size_t free = 0;
-    for (std::size_t n = 0; n < w.h.size(); ++n) {
-        const double change = now[n] - w.occupied[n];
-        w.h[n] -= change;
-        moved += change;
-        free += now[n] <= 0.0;
+    double moved = 0.0, free = 0.0;
+    for (int k = 0; k < w.nz; ++k) {
+        for (int i = 0; i < w.nx; ++i) {
+            const std::size_t n = std::size_t(k) * w.nx + i;
+            const double change = now[n] - w.occupied[n], share = nodeShare(w, i, k);
+            w.h[n] -= change;
+            moved += change * share;
+            free += now[n] <= 0.0 ? share : 0.0;
+        }
     }
-    if (moved != 0.0 && free > 0) {
-        const double rise = moved / double(free);
+    if (moved != 0.0 && free > 0.0) {
+        const double rise = moved / free;
         for (std::size_t n = 0; n < w.h.size(); ++n) {
             if (now[n] <= 0.0) {
                 w.h[n] += rise;
@@ -334,6 +510,8 @@ void hashWater(const Water& w, Hasher& h) {
     h.add(w.h);
     h.add(w.v);
     h.add(w.occupied);
+    h.add(w.ambient);
+    h.add(w.ambientV);
 }
 
 } // namespace
@@ -358,8 +536,20 @@ void stepWater(World& world, const StepContext& ctx) {
             couple(world, w, gravity, ctx.dt);
         }
         ProfileStage stage(ctx.profiler, "water.waves");
+        const double step = ctx.dt / substeps;
+        const bool ambient = !w.ambient.empty() && !w.ambientStill;
         for (std::uint32_t s = 0; s < substeps; ++s) {
-            waveStep(w, ctx.dt / substeps, poolOr(ctx.pool));
+            waveStep(w, w.h, w.v, step, poolOr(ctx.pool));
+            if (ambient) {
+                waveStep(w, w.ambient, w.ambientV, step, poolOr(ctx.pool));
+            }
+            if (w.maker.edge >= 0) {
+                const double t = ctx.time + step * double(s + 1);
+                driveEdge(w, w.h, w.v, t);
+                if (ambient) {
+                    driveEdge(w, w.ambient, w.ambientV, t);
+                }
+            }
         }
     });
 }
@@ -388,6 +578,10 @@ void registerWaterSystem(Catalog& catalog) {
             takeChanged(water.damping, was.damping, now.damping);
             takeChanged(water.density, was.density, now.density);
             takeChanged(water.bodyDrag, was.bodyDrag, now.bodyDrag);
+            takeChanged(water.maker.amplitude, was.maker.amplitude, now.maker.amplitude);
+            takeChanged(water.maker.period, was.maker.period, now.maker.period);
+            takeChanged(water.maker.edge, was.maker.edge, now.maker.edge);
+            water.ambientStill = water.ambientStill && water.maker.edge < 0;
         }});
     // disturb: a smooth bump of `amount` metres (negative: a dip) within `radius` of `position`
     catalog.addEventAction(
@@ -403,12 +597,17 @@ void registerWaterSystem(Catalog& catalog) {
          },
          [](World& world, Entity e, const EventDef& ev) {
              Water& w = world.get<Water>(e);
+             w.ambientStill = false; // a disturbance is a wave no body made: the ambient surface has it too
              for (int k = 0; k < w.nz; ++k) {
                  for (int i = 0; i < w.nx; ++i) {
                      const double d = std::hypot(w.nodeX(i) - ev.position[0], w.nodeZ(k) - ev.position[2]);
                      if (d < ev.radius) {
-                         w.h[std::size_t(k) * w.nx + i] +=
+                         const double bump =
                              ev.amount * 0.5 * (1.0 + std::cos(std::numbers::pi * d / ev.radius));
+                         w.h[std::size_t(k) * w.nx + i] += bump;
+                         if (!w.ambient.empty()) {
+                             w.ambient[std::size_t(k) * w.nx + i] += bump;
+                         }
                      }
                  }
              }

@@ -6,10 +6,12 @@
 // breaks it takes as many wave steps per fixed step as it needs, and says so once.
 // Borders: `reflect` (the surface's slope is zero there: waves bounce back) or `absorb` (a first-order
 // one-way condition, u_t = -c u_n, after Engquist & Majda: waves leave with little reflection).
-// Disturbances: the `disturb` event (position, radius, amount: a smooth raised or lowered bump), and rigid
-// bodies: where a body's column dips below the surface, the water it pushes aside is taken from those
-// nodes as the body sinks in (and given back as it rises), and the body feels buoyancy (the weight of the
-// water it displaces, at the centre of that volume) and a drag on its motion through the water.
+// Disturbances: the `disturb` event (position, radius, amount: a smooth raised or lowered bump) and a wave
+// maker (one edge driven up and down). Rigid bodies, both ways: a body floats on the ambient surface (the
+// waves no body made, a second height field), cut into vertical columns with its shape's exact extent, each
+// lifted by the weight of the water it displaces (buoyancy and the righting torque), the response to its
+// own motion implicit with added mass (stable at any density ratio); the surface's slope carries it; the
+// water it pushes aside leaves the nodes under it and raises the rest (the volume kept), making its waves.
 // System: reads RigidBody; writes Water and the impulses on RigidBody. Phase: fixed, after the rigid bridges.
 
 #include "components/water.h"

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes the meshes the rigid-body demos use into assets/meshes (run from the repository root):
 rock_0.obj ... rock_5.obj, convex rocks (the convex hull of random points on a squashed sphere, faces wound
-counter-clockwise seen from outside), and mountainside.obj, a static slope with bumps for the avalanche.
+counter-clockwise seen from outside), mountainside.obj, a static slope with bumps for the avalanche, and
+hull.obj, a boat's hull for the harbour (a convex hull: deck, keel, bow and a flat stern).
 The files are committed; run this again only to change them."""
 
 import itertools
@@ -72,6 +73,24 @@ def mountainside(nx=30, nz=16, width=30.0, depth=16.0, top=13.0):
     return verts, faces
 
 
+def boat():
+    """A boat's hull, 2.1 m long, 0.7 m across the deck, 0.4 m deep: a deck outline with a pointed bow
+    above a narrower keel. The points are nudged by a millimetre at most so no four lie on one plane (the
+    hull of coplanar points would have overlapping faces); its volume is printed, for the demo's masses."""
+    deck = [(-0.9, 0.2, -0.35), (0.7, 0.2, -0.35), (1.2, 0.2, 0.0), (0.7, 0.2, 0.35), (-0.9, 0.2, 0.35)]
+    keel = [(-0.8, -0.2, -0.12), (0.6, -0.2, -0.12), (0.9, -0.15, 0.0), (0.6, -0.2, 0.12), (-0.8, -0.2, 0.12)]
+    rng = random.Random(7)
+    points = [[c + rng.uniform(-1e-3, 1e-3) for c in p] for p in deck + keel]
+    faces = hull(points)
+    volume = 0.0
+    for a, b, c in faces:
+        pa, pb, pc = points[a], points[b], points[c]
+        volume += (pa[0] * (pb[1] * pc[2] - pb[2] * pc[1]) - pa[1] * (pb[0] * pc[2] - pb[2] * pc[0]) +
+                   pa[2] * (pb[0] * pc[1] - pb[1] * pc[0])) / 6.0
+    print("hull.obj: %d faces, %.4f m^3" % (len(faces), volume))
+    return points, faces
+
+
 def write(name, verts, faces, comment):
     with open(os.path.join(OUT, name), "w") as f:
         f.write("# %s (tools/make_meshes.py)\n" % comment)
@@ -88,3 +107,5 @@ if __name__ == "__main__":
         write("rock_%d.obj" % k, v, f, "a convex rock")
     v, f = mountainside()
     write("mountainside.obj", v, f, "the avalanche's slope, a static height field")
+    v, f = boat()
+    write("hull.obj", v, f, "a boat's hull for the harbour")
