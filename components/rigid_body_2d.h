@@ -16,6 +16,11 @@ enum class Shape2DKind : std::uint8_t { Box, Circle, Polygon, Edge };
 
 using Vec2 = std::array<double, 2>;
 
+/// The depth of a 2D body in the 3D scene: a slab of this half depth about its entity's z, as it is drawn
+/// and as springs and particles collide with it (an edge: a strip of kEdgeHalfWidth either side).
+constexpr double kSlabHalfDepth = 0.25; ///< m
+constexpr double kEdgeHalfWidth = 0.02; ///< m
+
 /// Shape, material, pose and velocities of a 2D rigid body.
 struct RigidBody2D {
     Shape2DKind shape = Shape2DKind::Box;

@@ -1,6 +1,7 @@
 #include "systems/collision_system.h"
 
 #include "components/particles.h"
+#include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
 #include "engine/parallel.h"
 #include "engine/scene.h"
@@ -288,7 +289,7 @@ private:
 /// by restitution, its sliding slowed by friction (it carries no mass, so no body feels it).
 void collideParticle(ParticlePool& p, std::uint32_t i, const EmitterDef& def,
                      const std::vector<RigidBody>& bodies, const NearBodies& near,
-                     std::vector<std::uint32_t>& candidates) {
+                     std::vector<std::uint32_t>& candidates, bool respond) {
     Vec3 x{p.px[i], p.py[i], p.pz[i]};
     Vec3 v{p.vx[i], p.vy[i], p.vz[i]};
     // a few passes, so that a particle wedged between two bodies ends up outside both
@@ -310,7 +311,7 @@ void collideParticle(ParticlePool& p, std::uint32_t i, const EmitterDef& def,
             const Vec3 surface = body.dynamic() ? body.velocityAt(x) : Vec3{};
             const Vec3 relative = v - surface;
             const double vn = dot(relative, n);
-            if (vn < 0.0) {
+            if (respond && vn < 0.0) {
                 const double mu = std::sqrt(body.friction * def.friction);
                 const double bounce = std::max(body.restitution, def.restitution); // as Box2D mixes it
                 Vec3 vt = relative - n * vn;
@@ -353,14 +354,142 @@ void collideParticle(ParticlePool& p, std::uint32_t i, const EmitterDef& def,
     p.vz[i] = float(v.z);
 }
 
-} // namespace
-
-void collideSprings(World& world, const StepContext&) {
-    Pool<RigidBody>* bodies = world.findPool<RigidBody>();
-    if (!bodies || bodies->size() == 0) {
-        return;
+/// A convex polygon (counter-clockwise) extruded to z in [-half, half], as a hull: the faces' first corners
+/// and outward normals are what the hull's distance reads.
+std::shared_ptr<const ShapeMesh> prismOf(const std::vector<Vec2>& polygon, double half) {
+    auto m = std::make_shared<ShapeMesh>();
+    const auto n = std::uint32_t(polygon.size());
+    for (const double z : {-half, half}) {
+        for (const Vec2& v : polygon) {
+            m->vertices.push_back({v[0], v[1], z});
+        }
     }
-    const NearBodies near(bodies->values());
+    for (std::uint32_t k = 1; k + 1 < n; ++k) {
+        m->triangles.push_back({0, k + 1, k}); // the face at -half, seen from below
+        m->faceNormals.push_back({0.0, 0.0, -1.0});
+        m->triangles.push_back({n, n + k, n + k + 1}); // at +half
+        m->faceNormals.push_back({0.0, 0.0, 1.0});
+    }
+    for (std::uint32_t i = 0; i < n; ++i) {
+        const std::uint32_t j = (i + 1) % n;
+        const Vec2 &a = polygon[i], &b = polygon[j];
+        Vec3 out{b[1] - a[1], a[0] - b[0], 0.0}; // the right of a -> b: outside a counter-clockwise polygon
+        out = out * (1.0 / length(out));
+        m->triangles.push_back({i, j, n + j});
+        m->faceNormals.push_back(out);
+        m->triangles.push_back({i, n + j, n + i});
+        m->faceNormals.push_back(out);
+    }
+    m->lo = m->hi = m->vertices[0];
+    for (const Vec3& v : m->vertices) {
+        m->lo = {std::min(m->lo.x, v.x), std::min(m->lo.y, v.y), std::min(m->lo.z, v.z)};
+        m->hi = {std::max(m->hi.x, v.x), std::max(m->hi.y, v.y), std::max(m->hi.z, v.z)};
+    }
+    return m;
+}
+
+/// A 2D body as the 3D shape it is drawn as (components/rigid_body_2d.h): a slab about its entity's z, in
+/// the pose and motion of the body; a circle is a cylinder along z, a polygon a prism, an edge a thin box
+/// about its middle (moving as the body's point there).
+RigidBody slabOf(const RigidBody2D& b, double z, double dt) {
+    RigidBody s;
+    s.mass = b.mass;
+    s.friction = b.friction;
+    s.restitution = b.restitution;
+    // where the body will be when Box2D has stepped, at its present velocity: points are put outside it
+    // there (against its pose at the start, a turning plank swept drops 3.5 mm deep into itself a step)
+    s.position = {b.position[0] + b.velocity[0] * dt, b.position[1] + b.velocity[1] * dt, z};
+    s.orientation = aboutZ(b.angle + b.angularVelocity * dt);
+    s.linearVelocity = {b.velocity[0], b.velocity[1], 0.0};
+    s.angularVelocity = {0.0, 0.0, b.angularVelocity};
+    switch (b.shape) {
+    case Shape2DKind::Box:
+        s.shape = ShapeKind::Box;
+        s.halfExtents = {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth};
+        break;
+    case Shape2DKind::Circle:
+        s.shape = ShapeKind::Cylinder; // its axis, the body's y, laid along z
+        s.radius = b.radius;
+        s.height = 2.0 * kSlabHalfDepth;
+        s.orientation = {std::sqrt(0.5), 0.0, 0.0, std::sqrt(0.5)};
+        break;
+    case Shape2DKind::Polygon:
+        s.shape = ShapeKind::Convex;
+        s.mesh = prismOf(b.vertices, kSlabHalfDepth);
+        break;
+    case Shape2DKind::Edge: {
+        const Vec3 from = rotate(s.orientation, {b.from[0], b.from[1], 0.0});
+        const Vec3 to = rotate(s.orientation, {b.to[0], b.to[1], 0.0});
+        const Vec3 mid = (from + to) * 0.5;
+        s.shape = ShapeKind::Box;
+        s.halfExtents = {0.5 * length(to - from), kEdgeHalfWidth, kSlabHalfDepth};
+        s.orientation = aboutZ(std::atan2(to.y - from.y, to.x - from.x));
+        s.position += mid;
+        s.linearVelocity += cross(s.angularVelocity, mid);
+        break;
+    }
+    }
+    return s;
+}
+
+/// The bodies springs and particles meet: the 3D bodies in their pool's order, then the 2D bodies' slabs in
+/// theirs. Without 2D bodies, the 3D pool itself; with them, copies, whose pushes handBack() gives to the
+/// bodies (a 2D body takes the push in its plane and the turn about z).
+class Colliders {
+public:
+    Colliders(World& world, double dt)
+        : m_pool3(world.findPool<RigidBody>()), m_pool2(world.findPool<RigidBody2D>()) {
+        if (!m_pool2 || m_pool2->size() == 0) {
+            m_bodies = m_pool3 ? &m_pool3->values() : nullptr;
+            return;
+        }
+        if (m_pool3) {
+            m_all = m_pool3->values();
+        }
+        m_first2 = m_all.size();
+        for (std::size_t k = 0; k < m_pool2->size(); ++k) {
+            const Transform* t = world.tryGet<Transform>(m_pool2->entities()[k]);
+            m_all.push_back(slabOf(m_pool2->values()[k], t ? t->position.z : 0.0, dt));
+        }
+        m_bodies = &m_all;
+    }
+
+    bool empty() const { return !m_bodies || m_bodies->empty(); }
+    std::vector<RigidBody>& bodies() { return *m_bodies; }
+
+    void handBack() {
+        if (m_bodies != &m_all) {
+            return;
+        }
+        for (std::size_t k = 0; k < m_first2; ++k) {
+            m_pool3->values()[k].impulse = m_all[k].impulse;
+            m_pool3->values()[k].angularImpulse = m_all[k].angularImpulse;
+        }
+        for (std::size_t k = m_first2; k < m_all.size(); ++k) {
+            const RigidBody& s = m_all[k];
+            if (s.impulse == Vec3{} && s.angularImpulse == Vec3{}) {
+                continue;
+            }
+            RigidBody2D& b = m_pool2->values()[k - m_first2];
+            // the turn about the body's centre, from the turn about the slab's (an edge's middle)
+            const Vec3 offset = s.position - Vec3{b.position[0], b.position[1], s.position.z};
+            b.impulse[0] += s.impulse.x;
+            b.impulse[1] += s.impulse.y;
+            b.angularImpulse += s.angularImpulse.z + cross(offset, s.impulse).z;
+        }
+    }
+
+private:
+    Pool<RigidBody>* m_pool3;
+    Pool<RigidBody2D>* m_pool2;
+    std::vector<RigidBody> m_all;
+    std::size_t m_first2 = 0;
+    std::vector<RigidBody>* m_bodies = nullptr;
+};
+
+/// Every spring network's masses against the bodies; with `respond` false, only put back outside them.
+void springsAgainst(World& world, std::vector<RigidBody>& bodies, bool respond) {
+    const NearBodies near(bodies);
     std::vector<std::uint32_t> candidates;
     world.view<SpringNetwork>().each([&](Entity, SpringNetwork& net) {
         if (net.frozen) {
@@ -376,7 +505,7 @@ void collideSprings(World& world, const StepContext&) {
                 near.find(net.x[i], net.thickness, candidates);
                 for (std::size_t c = 0; c < candidates.size(); ++c) {
                     const std::uint32_t k = candidates[c];
-                    RigidBody& body = bodies->values()[k];
+                    RigidBody& body = bodies[k];
                     Vec3 n;
                     const double d = signedDistance(body, net.x[i], n);
                     if (d >= net.thickness) {
@@ -390,7 +519,7 @@ void collideSprings(World& world, const StepContext&) {
                     const Vec3 surface = body.dynamic() ? body.velocityAt(net.x[i]) : Vec3{};
                     const Vec3 relative = net.v[i] - surface;
                     const double vn = dot(relative, n);
-                    if (vn >= 0.0) {
+                    if (!respond || vn >= 0.0) {
                         continue; // already leaving the surface
                     }
                     // the velocity into the surface stops (or bounces by restitution); sliding loses to
@@ -420,12 +549,9 @@ void collideSprings(World& world, const StepContext&) {
 
 /// Particles against the bodies: each particle alone (they carry no mass, so no body feels them), so
 /// chunks of particles share out over the pool's threads with the same bits.
-void collideParticles(World& world, const StepContext& ctx) {
-    const Pool<RigidBody>* bodies = world.findPool<RigidBody>();
-    if (!bodies || bodies->size() == 0) {
-        return;
-    }
-    const NearBodies near(bodies->values());
+void particlesAgainst(World& world, const StepContext& ctx, const std::vector<RigidBody>& bodies,
+                      bool respond) {
+    const NearBodies near(bodies);
     world.view<ParticleEmitter>().each([&](Entity, ParticleEmitter& e) {
         if (!e.def.collide) {
             return;
@@ -434,15 +560,52 @@ void collideParticles(World& world, const StepContext& ctx) {
         poolOr(ctx.pool).forChunks(p.count, 4096, [&](std::size_t, std::size_t first, std::size_t end) {
             std::vector<std::uint32_t> candidates;
             for (std::size_t i = first; i < end; ++i) {
-                collideParticle(p, std::uint32_t(i), e.def, bodies->values(), near, candidates);
+                collideParticle(p, std::uint32_t(i), e.def, bodies, near, candidates, respond);
             }
         });
     });
 }
 
+} // namespace
+
+void collideSprings(World& world, const StepContext& ctx) {
+    Colliders colliders(world, ctx.dt);
+    if (colliders.empty()) {
+        return;
+    }
+    springsAgainst(world, colliders.bodies(), true);
+    colliders.handBack();
+}
+
+void collideParticles(World& world, const StepContext& ctx) {
+    Colliders colliders(world, ctx.dt);
+    if (!colliders.empty()) {
+        particlesAgainst(world, ctx, colliders.bodies(), true);
+    }
+}
+
 void collideWithBodies(World& world, const StepContext& ctx) {
-    collideSprings(world, ctx);
-    collideParticles(world, ctx);
+    Colliders colliders(world, ctx.dt);
+    if (colliders.empty()) {
+        return;
+    }
+    springsAgainst(world, colliders.bodies(), true);
+    colliders.handBack();
+    particlesAgainst(world, ctx, colliders.bodies(), true); // (particles push nothing: no hand-back)
+}
+
+void settleOutside2DBodies(World& world, const StepContext& ctx) {
+    const Pool<RigidBody2D>* pool = world.findPool<RigidBody2D>();
+    if (!pool || pool->size() == 0) {
+        return;
+    }
+    std::vector<RigidBody> slabs;
+    for (std::size_t k = 0; k < pool->size(); ++k) {
+        const Transform* t = world.tryGet<Transform>(pool->entities()[k]);
+        slabs.push_back(slabOf(pool->values()[k], t ? t->position.z : 0.0, 0.0));
+    }
+    springsAgainst(world, slabs, false);
+    particlesAgainst(world, ctx, slabs, false);
 }
 
 } // namespace tumble

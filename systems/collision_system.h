@@ -6,9 +6,11 @@
 // moving body takes the momentum the mass lost (an impulse left on RigidBody, applied by the Bullet bridge
 // in the same step), so cloth weighs on a crate.
 // Particles (with collide = true) bounce instead: restitution reverses part of the normal speed; they carry
-// no mass and push nothing. Neither collides with 2D (Box2D) bodies.
-// System: reads RigidBody, writes SpringNetwork and ParticleEmitter x, v and RigidBody impulses. Phase:
-// fixed, after the springs and before the rigid bridges.
+// no mass and push nothing. 2D (Box2D) bodies take part as the slabs they are drawn as
+// (components/rigid_body_2d.h: a box, a cylinder along z, a prism, a thin strip for an edge, about their
+// entity's z), after the 3D bodies; what a mass pushes on one reaches it in its plane, and about z.
+// System: reads RigidBody, RigidBody2D and Transform, writes SpringNetwork and ParticleEmitter x, v and the
+// bodies' impulses. Phase: fixed, after the springs and before the rigid bridges.
 
 #include "components/rigid_body.h"
 #include "engine/catalog.h"
@@ -33,5 +35,10 @@ void collideParticles(World& world, const StepContext& ctx);
 
 /// The `collisions` system: the spring networks' masses, then the particles.
 void collideWithBodies(World& world, const StepContext& ctx);
+
+/// The `collisions_2d` system, after the rigid bridges: puts every mass and particle that Box2D's step left
+/// inside a 2D body (its position correction moves bodies a millimetre without a velocity) back outside
+/// it where it now is, without touching velocities; so none ends a step inside one.
+void settleOutside2DBodies(World& world, const StepContext& ctx);
 
 } // namespace tumble

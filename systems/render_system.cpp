@@ -502,9 +502,6 @@ std::vector<float> prismMesh(const std::vector<Vec2>& v) {
     return out;
 }
 
-/// Depth of a 2D body as drawn: a slab about the plane z = its entity's z.
-constexpr double kSlabHalfDepth = 0.25;
-
 /// A body's pose as drawn: between its pose before and after the last fixed step, at `alpha`.
 void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat& orientation) {
     const PoseHistory* before = alpha < 1.0 ? world.tryGet<PoseHistory>(e) : nullptr;
@@ -573,40 +570,41 @@ void drawColliders(World& world, Renderer& r, double alpha) {
             break;
         }
     });
-    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b,
-                                                              const Transform& t) {
-        const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
-        Quat q = aboutZ(b.angle);
-        Vec3 at{b.position[0], b.position[1], t.position.z};
-        drawnPose(world, e, alpha, at, q);
-        const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
-        switch (b.shape) {
-        case Shape2DKind::Box:
-            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour,
-                 false);
-            break;
-        case Shape2DKind::Circle:
-            // the unit cylinder stands along y: lay it along z
-            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour,
-                 false);
-            break;
-        case Shape2DKind::Polygon: {
-            const Mesh prism = upload(prismMesh(b.vertices));
-            draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour, false);
-            glDeleteBuffers(1, &prism.vbo);
-            glDeleteVertexArrays(1, &prism.vao);
-            break;
-        }
-        case Shape2DKind::Edge: {
-            const Vec3 from = at + ax * b.from[0] + ay * b.from[1], to = at + ax * b.to[0] + ay * b.to[1];
-            const Vec3 along = to - from;
-            const double len = length(along);
-            const Vec3 ex = along * (1.0 / len), ey = cross({0, 0, 1}, ex);
-            draw(r.cube, model((from + to) * 0.5, {0.5 * len, 0.02, kSlabHalfDepth}, ex, ey), colour, false);
-            break;
-        }
-        }
-    });
+    world.view<const RigidBody2D, const Transform>().each(
+        [&](Entity e, const RigidBody2D& b, const Transform& t) {
+            const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
+            Quat q = aboutZ(b.angle);
+            Vec3 at{b.position[0], b.position[1], t.position.z};
+            drawnPose(world, e, alpha, at, q);
+            const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
+            switch (b.shape) {
+            case Shape2DKind::Box:
+                draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour,
+                     false);
+                break;
+            case Shape2DKind::Circle:
+                // the unit cylinder stands along y: lay it along z
+                draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour,
+                     false);
+                break;
+            case Shape2DKind::Polygon: {
+                const Mesh prism = upload(prismMesh(b.vertices));
+                draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour, false);
+                glDeleteBuffers(1, &prism.vbo);
+                glDeleteVertexArrays(1, &prism.vao);
+                break;
+            }
+            case Shape2DKind::Edge: {
+                const Vec3 from = at + ax * b.from[0] + ay * b.from[1], to = at + ax * b.to[0] + ay * b.to[1];
+                const Vec3 along = to - from;
+                const double len = length(along);
+                const Vec3 ex = along * (1.0 / len), ey = cross({0, 0, 1}, ex);
+                draw(r.cube, model((from + to) * 0.5, {0.5 * len, kEdgeHalfWidth, kSlabHalfDepth}, ex, ey),
+                     colour, false);
+                break;
+            }
+            }
+        });
 }
 
 /// Draws r.clothVertices (position and normal per corner, in world space) as lit triangles of one colour.

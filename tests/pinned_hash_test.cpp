@@ -26,18 +26,19 @@ constexpr int kStressFrames = 4; ///< for the stress scenes (one frame of stress
 /// The demos' hashes: FNV-1a over the state hash after each of the first frames (x86-64, g++ 12).
 const std::map<std::string, std::uint64_t>& pinned() {
     static const std::map<std::string, std::uint64_t> table = {
-        {"avalanche", 0x6d69c19afa328e10ull},   {"bridge", 0x3408f5c575e2bedeull},
-        {"crane", 0xe25a2e3030783a21ull},       {"curtain", 0x867ac71c16d4953bull},
-        {"drape", 0x74412b0c8b3c1103ull},       {"drape_sphere", 0xac014db4a1b3baf6ull},
-        {"fireworks", 0x3bdcd0d4e9e2040dull},   {"flag", 0x6520a37fdfd7c441ull},
-        {"fountain", 0x96c4ec7da42939c6ull},    {"harbour", 0xcf701e05aba8eb1aull},
-        {"integrators", 0x8963cf2ba1e41e6full}, {"jelly", 0x6028c919bfbf2862ull},
-        {"million", 0xe0cb21353e5201fbull},     {"pendulum", 0x8fe933336facf719ull},
-        {"pile", 0x22aa2bc362a7dab0ull},        {"pond", 0x3e29bea3cdd233e9ull},
-        {"pyramid2d", 0xaaf1caf17cbaca9bull},   {"rope", 0x88334b26b042cf35ull},
-        {"smoke", 0x705a8ff5adce9556ull},       {"stress_cloth", 0x95c511dfa8cbad49ull},
-        {"tablecloth", 0xa0f25f05f9f53482ull},  {"twist", 0x69b20c7285054381ull},
-        {"wake", 0x80d3a5ca0926f615ull},        {"every_kind", 0x1ab8995cac70bf4cull},
+        {"avalanche", 0x6d69c19afa328e10ull},     {"bridge", 0x3408f5c575e2bedeull},
+        {"contraption2d", 0x056afe20b481b4c0ull}, {"crane", 0xe25a2e3030783a21ull},
+        {"curtain", 0x867ac71c16d4953bull},       {"drape", 0x74412b0c8b3c1103ull},
+        {"drape_sphere", 0xac014db4a1b3baf6ull},  {"fireworks", 0x3bdcd0d4e9e2040dull},
+        {"flag", 0x6520a37fdfd7c441ull},          {"fountain", 0x96c4ec7da42939c6ull},
+        {"harbour", 0xcf701e05aba8eb1aull},       {"integrators", 0x8963cf2ba1e41e6full},
+        {"jelly", 0x6028c919bfbf2862ull},         {"million", 0xe0cb21353e5201fbull},
+        {"pendulum", 0x8fe933336facf719ull},      {"pile", 0x22aa2bc362a7dab0ull},
+        {"pond", 0x3e29bea3cdd233e9ull},          {"pyramid2d", 0xaaf1caf17cbaca9bull},
+        {"rope", 0x88334b26b042cf35ull},          {"smoke", 0x705a8ff5adce9556ull},
+        {"stress_cloth", 0x95c511dfa8cbad49ull},  {"tablecloth", 0xa0f25f05f9f53482ull},
+        {"twist", 0x69b20c7285054381ull},         {"wake", 0x80d3a5ca0926f615ull},
+        {"every_kind", 0x1ab8995cac70bf4cull},
     };
     return table;
 }

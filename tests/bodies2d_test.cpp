@@ -1,0 +1,235 @@
+// Springs and particles against 2D (Box2D) bodies, which they meet as the slabs the bodies are drawn as:
+// in the 2D demo no drop and no rope mass ends inside a body (by a point-in-shape test written here), and
+// the cart moves only because the rope hits it; a drop rebounds at restitution times its speed and pushes
+// nothing (a body under a fountain keeps its bits); a mass that strikes a free box gives it the momentum it
+// loses (the total is conserved).
+
+#include "components/particles.h"
+#include "components/rigid_body_2d.h"
+#include "components/spring_network.h"
+#include "engine/transform.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace tumble {
+namespace {
+
+using test::component;
+using test::makeSimulation;
+
+/// How deep world point p is inside the slab of a 2D body (positive inside, <= 0 outside), by plain
+/// geometry: the point in the body's frame against its box, circle or polygon, and the slab's depth in z.
+double depthInside(const RigidBody2D& b, double slabZ, const Vec3& p) {
+    const double dz = kSlabHalfDepth - std::abs(p.z - slabZ);
+    const double c = std::cos(b.angle), s = std::sin(b.angle);
+    const double rx = p.x - b.position[0], ry = p.y - b.position[1];
+    const double x = c * rx + s * ry, y = -s * rx + c * ry; // in the body's frame
+    double d = 0.0;
+    switch (b.shape) {
+    case Shape2DKind::Box:
+        d = std::min(b.halfExtents[0] - std::abs(x), b.halfExtents[1] - std::abs(y));
+        break;
+    case Shape2DKind::Circle:
+        d = b.radius - std::hypot(x, y);
+        break;
+    case Shape2DKind::Polygon: {
+        d = 1e300;
+        const std::size_t n = b.vertices.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2 &a = b.vertices[i], &e = b.vertices[(i + 1) % n];
+            const double ex = e[0] - a[0], ey = e[1] - a[1], len = std::hypot(ex, ey);
+            // counter-clockwise: inside is to the left of each edge
+            d = std::min(d, (ex * (y - a[1]) - ey * (x - a[0])) / len);
+        }
+        break;
+    }
+    case Shape2DKind::Edge:
+        return 0.0; // no inside
+    }
+    return std::min(d, dz);
+}
+
+/// The deepest any point of the list is inside any 2D body of the simulation.
+template <class Points>
+double deepest(Simulation& sim, const Points& points) {
+    double worst = -1e300;
+    sim.world().view<const RigidBody2D, const Transform>().each(
+        [&](Entity, const RigidBody2D& b, const Transform& t) {
+            points([&](const Vec3& p) { worst = std::max(worst, depthInside(b, t.position.z, p)); });
+        });
+    return worst;
+}
+
+std::string demo(const std::string& name) {
+    return test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/" + name + ".toml");
+}
+
+TEST(Bodies2D, InTheDemoNoDropAndNoRopeMassEndsInsideABodyAndTheRopeShovesTheCart) {
+    auto sim = makeSimulation(demo("contraption2d"));
+    const double cartStart = component<RigidBody2D>(*sim, "cart").position[0];
+    double worstDrop = -1e300, worstRope = -1e300;
+    std::size_t drops = 0;
+    for (int f = 0; f < 240; ++f) {
+        sim->runFrame();
+        const ParticlePool& p = component<ParticleEmitter>(*sim, "fountain").pool;
+        drops = std::max<std::size_t>(drops, p.count);
+        worstDrop = std::max(worstDrop, deepest(*sim, [&](auto&& visit) {
+                                 for (std::uint32_t i = 0; i < p.count; ++i) {
+                                     visit(Vec3{p.px[i], p.py[i], p.pz[i]});
+                                 }
+                             }));
+        const SpringNetwork& rope = component<SpringNetwork>(*sim, "rope");
+        worstRope = std::max(worstRope, deepest(*sim, [&](auto&& visit) {
+                                 for (const Vec3& x : rope.x) {
+                                     visit(x);
+                                 }
+                             }));
+    }
+    EXPECT_GT(drops, 500u) << "the fountain plays";
+    EXPECT_LE(worstDrop, 1e-6) << "a drop inside a body (m)";
+    EXPECT_LE(worstRope, 1e-6) << "a rope mass inside a body (m)";
+    const double moved = component<RigidBody2D>(*sim, "cart").position[0] - cartStart;
+    EXPECT_LT(moved, -0.3) << "shoved along -x by the rope's swing";
+
+    // the same scene without the rope: the cart stays where it was
+    std::string text = demo("contraption2d");
+    const auto from = text.find("[[entity]]\nname = \"rope\"");
+    const auto to = text.find("[[entity]]", from + 1);
+    ASSERT_NE(from, std::string::npos);
+    text.erase(from, to - from);
+    auto still = makeSimulation(text);
+    for (int f = 0; f < 240; ++f) {
+        still->runFrame();
+    }
+    // (the ball, rolling off the seesaw, nudges it by 4 cm)
+    EXPECT_LT(std::abs(component<RigidBody2D>(*still, "cart").position[0] - cartStart), 0.1);
+}
+
+const char* kBox = R"(
+[[entity]]
+name = "block"
+[entity.transform]
+position = [0.0, 0.5, 0.0]
+[entity.rigid_body_2d]
+shape = "box"
+half_extents = [1.0, 0.5]
+)";
+
+TEST(Bodies2D, ADropReboundsAtRestitutionTimesItsSpeed) {
+    // one drop from 1 m above a static box's top, no drag: it meets it at sqrt(2 g h) and leaves at 0.5 of
+    // that (its restitution; the box's is 0 and the larger counts)
+    auto sim = makeSimulation(std::string(R"(
+[scene]
+name = "drop"
+dt = 0.001
+gravity = [0, -10, 0]
+[[entity]]
+name = "drip"
+[entity.transform]
+position = [0.0, 2.0, 0.0]
+[entity.emitter]
+burst = 1
+speed = [0.0, 0.0]
+lifetime = [5.0, 5.0]
+restitution = 0.5
+friction = 0.0
+)") + kBox);
+    float lowest = 1e9f, fastestUp = 0.0f;
+    for (int f = 0; f < 700; ++f) {
+        sim->runFrame();
+        const ParticlePool& p = component<ParticleEmitter>(*sim, "drip").pool;
+        ASSERT_EQ(p.count, 1u);
+        lowest = std::min(lowest, p.py[0]);
+        fastestUp = std::max(fastestUp, p.vy[0]);
+    }
+    EXPECT_GE(lowest, 1.0f) << "never below the box's top";
+    // the impact speed sqrt(2 g h) = sqrt(20); a step's rounding of where it meets the top: 1e-2 dt g
+    EXPECT_NEAR(fastestUp, 0.5 * std::sqrt(20.0), 0.02);
+}
+
+TEST(Bodies2D, DropsPushNothing) {
+    // a free box under a fountain keeps the very bits it has without one
+    const std::string base = R"(
+[scene]
+name = "rain"
+dt = 0.01
+[[entity]]
+name = "floor"
+[entity.rigid_body_2d]
+shape = "edge"
+from = [-5.0, 0.0]
+to = [5.0, 0.0]
+[[entity]]
+name = "crate"
+[entity.transform]
+position = [0.0, 0.5, 0.0]
+[entity.rigid_body_2d]
+shape = "box"
+half_extents = [0.5, 0.5]
+mass = 0.1
+)";
+    auto dry = makeSimulation(base);
+    auto wet = makeSimulation(base + R"(
+[[entity]]
+name = "hose"
+[entity.transform]
+position = [0.0, 3.0, 0.0]
+[entity.emitter]
+rate = 2000.0
+direction = [0.0, -1.0, 0.0]
+spread_deg = 0.0
+speed = [5.0, 6.0]
+)");
+    std::size_t hits = 0;
+    for (int f = 0; f < 120; ++f) {
+        dry->runFrame();
+        wet->runFrame();
+        const ParticlePool& p = component<ParticleEmitter>(*wet, "hose").pool;
+        for (std::uint32_t i = 0; i < p.count; ++i) {
+            hits += p.vy[i] > 0.0f; // bounced off the crate
+        }
+    }
+    EXPECT_GT(hits, 1000u) << "the drops do meet the crate";
+    const RigidBody2D &a = component<RigidBody2D>(*dry, "crate"), &b = component<RigidBody2D>(*wet, "crate");
+    EXPECT_EQ(a.position, b.position);
+    EXPECT_EQ(a.velocity, b.velocity);
+    EXPECT_EQ(a.angle, b.angle);
+}
+
+TEST(Bodies2D, AMassStrikingAFreeBoxGivesItTheMomentumItLoses) {
+    // no gravity: a 1 kg mass at 2 m/s along x strikes a 3 kg box at rest; whatever the contact does,
+    // the total momentum along x stays 2 kg m/s, and the box ends up moving
+    auto sim = makeSimulation(R"(
+[scene]
+name = "strike"
+dt = 0.002
+gravity = [0, 0, 0]
+[[entity]]
+name = "pellet"
+[entity.springs]
+masses = [ { x = [-1.0, 0.1, 0.0], v = [2.0, 0.0, 0.0], m = 1.0 } ]
+thickness = 0.02
+[[entity]]
+name = "box"
+[entity.rigid_body_2d]
+shape = "box"
+half_extents = [0.3, 0.3]
+mass = 3.0
+friction = 0.0
+)");
+    for (int f = 0; f < 600; ++f) {
+        sim->runFrame();
+    }
+    const SpringNetwork& pellet = component<SpringNetwork>(*sim, "pellet");
+    const RigidBody2D& box = component<RigidBody2D>(*sim, "box");
+    const double total = pellet.v[0].x * 1.0 + box.velocity[0] * 3.0;
+    EXPECT_NEAR(total, 2.0, 1e-5) << "pellet " << pellet.v[0].x << ", box " << box.velocity[0];
+    EXPECT_GT(box.velocity[0], 0.4) << "the box moves off";
+    EXPECT_LT(pellet.x[0].x, box.position[0] - 0.3 + 1e-6) << "the pellet stays outside";
+}
+
+} // namespace
+} // namespace tumble
