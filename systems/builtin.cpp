@@ -63,7 +63,7 @@ const std::vector<SystemEntry>& builtinSystems() {
         {"collisions_2d", Phase::Fixed, settleOutside2DBodies,
          accessOf<Reads<RigidBody2D, Transform>, Writes<SpringNetwork, ParticleEmitter>>()},
         {"water", Phase::Fixed, stepWater,
-         accessOf<Reads<SceneDef, Name>, Writes<Water, RigidBody, RunReport>>()},
+         accessOf<Reads<SceneDef, Name, Transform>, Writes<Water, RigidBody, RigidBody2D, RunReport>>()},
         {"render", Phase::Frame, renderWorld,
          accessOf<Reads<SceneDef, SpringNetwork, RigidBody, RigidBody2D, Transform, Water, ParticleEmitter,
                         RenderHistory, PoseHistory>,

@@ -388,9 +388,8 @@ std::shared_ptr<const ShapeMesh> prismOf(const std::vector<Vec2>& polygon, doubl
     return m;
 }
 
-/// A 2D body as the 3D shape it is drawn as (components/rigid_body_2d.h): a slab about its entity's z, in
-/// the pose and motion of the body; a circle is a cylinder along z, a polygon a prism, an edge a thin box
-/// about its middle (moving as the body's point there).
+} // namespace
+
 RigidBody slabOf(const RigidBody2D& b, double z, double dt) {
     RigidBody s;
     s.mass = b.mass;
@@ -431,6 +430,8 @@ RigidBody slabOf(const RigidBody2D& b, double z, double dt) {
     }
     return s;
 }
+
+namespace {
 
 /// The bodies springs and particles meet: the 3D bodies in their pool's order, then the 2D bodies' slabs in
 /// theirs. Without 2D bodies, the 3D pool itself; with them, copies, whose pushes handBack() gives to the

@@ -13,6 +13,7 @@
 // bodies' impulses. Phase: fixed, after the springs and before the rigid bridges.
 
 #include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
 #include "engine/catalog.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
@@ -25,6 +26,12 @@ double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal);
 
 /// The same for a point in the body's frame; the normal is in the body's frame too.
 double localSignedDistance(const RigidBody& body, const Vec3& local, Vec3& normal);
+
+/// A 2D body as the 3D shape it is drawn as (components/rigid_body_2d.h): a slab about z (its entity's z),
+/// in the body's pose advanced by its velocity over dt, and moving as it does; a circle is a cylinder along
+/// z, a polygon a prism, an edge a thin box about its middle (moving as the body's point there). The
+/// water floats 2D bodies as these too.
+RigidBody slabOf(const RigidBody2D& body, double z, double dt);
 
 /// Pushes every spring network's masses out of every static body.
 void collideSprings(World& world, const StepContext& ctx);

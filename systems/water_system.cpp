@@ -1,6 +1,7 @@
 #include "systems/water_system.h"
 
 #include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
 #include "engine/name.h"
 #include "engine/parallel.h"
 #include "engine/profiler.h"
@@ -8,6 +9,7 @@
 #include "engine/run_report.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
+#include "systems/collision_system.h"
 
 #include <algorithm>
 #include <cmath>
@@ -373,10 +375,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     const double area = w.dx() * w.dz(), sub = 0.25 * area; // a node's cell, a quarter of it
     const double g = std::max(0.0, -gravity.y);             // the stiffness of the waterline: rho g
     bool touched = false; // whether any body reaches into the water this step
-    world.view<RigidBody>().each([&](Entity, RigidBody& b) {
-        if (!b.dynamic() || b.frozen) {
-            return;
-        }
+    auto coupleBody = [&](RigidBody& b) {
         // the nodes under the body's horizontal reach
         const double reach = reachOf(b);
         // node indices, clamped in double first (a body far away must not overflow an int)
@@ -467,7 +466,28 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                 (torque * dt - tilting * (kt * dt * dt)) * (inertia / (inertia + kt * dt * dt));
         }
         b.angularImpulse -= b.angularVelocity * (decay * inertia);
+    };
+    world.view<RigidBody>().each([&](Entity, RigidBody& b) {
+        if (b.dynamic() && !b.frozen) {
+            coupleBody(b);
+        }
     });
+    // a 2D body floats as the slab it is drawn as (systems/collision_system.h), and takes the push in its
+    // plane and the turn about z
+    if (Pool<RigidBody2D>* bodies2d = world.findPool<RigidBody2D>()) {
+        for (std::size_t k = 0; k < bodies2d->size(); ++k) {
+            RigidBody2D& b = bodies2d->values()[k];
+            if (!b.dynamic()) {
+                continue;
+            }
+            const Transform* t = world.tryGet<Transform>(bodies2d->entities()[k]);
+            RigidBody slab = slabOf(b, t ? t->position.z : 0.0, 0.0);
+            coupleBody(slab);
+            b.impulse[0] += slab.impulse.x;
+            b.impulse[1] += slab.impulse.y;
+            b.angularImpulse += slab.angularImpulse.z;
+        }
+    }
     // the water a body pushes aside as it sinks in leaves the nodes under it and raises the free surface
     // everywhere else by as much in all (and flows back as the body rises): the volume (the nodes' shares
     // of their heights) is kept, and the dent under the body makes the waves

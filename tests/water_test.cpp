@@ -3,6 +3,7 @@
 // settles at the draft its density predicts.
 
 #include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
 #include "components/water.h"
 #include "engine/run_report.h"
 #include "tests/test_support.h"
@@ -286,6 +287,36 @@ TEST_P(FloatingDensity, AnyDensityAtALongStepSettlesAtItsDraftWithoutBlowingUp) 
 
 INSTANTIATE_TEST_SUITE_P(Water, FloatingDensity, ::testing::Values(1.0, 10.0, 100.0, 500.0, 900.0, 3000.0),
                          [](const auto& p) { return "density_" + std::to_string(int(p.param)); });
+
+/// A 2D square of side 0.6 m (as its slab, twice kSlabHalfDepth deep) of this density (kg/m^3), released
+/// tilted by `angle` (rad) with its centre at y0, after 15 s in a pool.
+RigidBody2D floatedSquare(double density, double angle, double y0) {
+    const double volume = 0.6 * 0.6 * 2.0 * kSlabHalfDepth;
+    auto sim = test::makeSimulation(
+        pool(1.0 / 60.0, "cells = [81, 81]\nsize = [4.0, 4.0]\nwave_speed = 1.5\ndamping = 0.5\ndrag = 2.0\n",
+             "[[entity]]\nname = \"log\"\n[entity.transform]\nposition = [0, " + std::to_string(y0) +
+                 ", 0]\n[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.3, 0.3]\nsleep = false\n"
+                 "angle = " +
+                 std::to_string(angle) + "\nmass = " + std::to_string(density * volume) + "\n"));
+    for (int f = 0; f < 900; ++f) {
+        sim->runFrame();
+    }
+    return test::component<RigidBody2D>(*sim, "log");
+}
+
+TEST(Water, A2DSquareFloatsAsItsSlabAtItsDraftAndTurnsAsItsMetacentreSays) {
+    // a square log of relative density s floats with s of its side under; flat side up it is stable when
+    // its metacentric height GM = side (s/2 + 1/(12 s) - 1/2) is positive (s < 0.21 or s > 0.79), and
+    // otherwise turns a corner down (its diagonal upright, 45 degrees) (Archimedes; any naval text)
+    const RigidBody2D light = floatedSquare(150.0, 0.3, 0.3);
+    EXPECT_NEAR(0.3 - light.position[1], 0.15 * 0.6, 0.05 * 0.15 * 0.6) << "the draft, s of the side";
+    EXPECT_LT(std::abs(light.angle), 0.02) << "s = 0.15: GM > 0, released at 0.3 rad it rights itself";
+    EXPECT_LT(std::abs(light.velocity[1]), 0.01) << "settled";
+    const RigidBody2D middling = floatedSquare(400.0, 0.1, 0.1);
+    const double quarter = std::numbers::pi / 2.0;
+    const double turned = std::fmod(std::abs(middling.angle), quarter);
+    EXPECT_NEAR(turned, quarter / 2.0, 0.05) << "s = 0.4: GM < 0, released at 0.1 rad it turns a corner down";
+}
 
 } // namespace
 } // namespace tumble
