@@ -509,8 +509,10 @@ Retune bodyRetune(const char* key) {
         bool sameShape =
             was.shape == now.shape && was.halfExtents == now.halfExtents && was.radius == now.radius;
         if constexpr (std::is_same_v<Body, RigidBody>) {
-            sameShape =
-                sameShape && was.height == now.height && was.mesh == now.mesh && was.normal == now.normal;
+            // a hull or mesh: each load reads its own copy of the file, so the same file is the same shape
+            const bool sameMesh =
+                was.mesh == now.mesh || (was.mesh && now.mesh && was.mesh->path == now.mesh->path);
+            sameShape = sameShape && was.height == now.height && sameMesh && was.normal == now.normal;
         } else {
             sameShape = sameShape && was.vertices == now.vertices && was.from == now.from && was.to == now.to;
         }

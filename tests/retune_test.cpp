@@ -166,6 +166,29 @@ value = [2.0, 0, 0]
     EXPECT_NEAR(component<RigidBody>(*sim, "crate").linearVelocity.x, 0.5, 1e-6);
 }
 
+TEST(SetEvent, ASceneWithAHullTakesASetEvent) {
+    // each of the two loads a set event compares reads its own copy of the hull's file: the same file is
+    // the same shape (a wave maker's period set in the harbour was refused as "a body's shape" changing)
+    auto sim = makeSimulation(R"(
+[scene]
+name = "hull"
+dt = 0.01
+[[entity]]
+name = "rock"
+[entity.rigid_body]
+shape = "convex"
+mesh = "assets/meshes/rock_0.obj"
+mass = 2.0
+[[event]]
+frame = 5
+action = "set"
+key = "rock.rigid_body.friction"
+value = 0.9
+)");
+    run(*sim, 6);
+    EXPECT_EQ(component<RigidBody>(*sim, "rock").friction, 0.9);
+}
+
 TEST(SetEvent, ARunWithSetEventsReplaysBitForBit) {
     // from the scenario and from --input: both are recorded, and the replay verifies
     const std::string scenario = test::writeTemp("set_replay.toml", std::string(kCurtain) + R"(
