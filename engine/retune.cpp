@@ -4,6 +4,7 @@
 #include "engine/transform.h"
 
 #include <map>
+#include <optional>
 
 namespace tumble {
 
@@ -84,6 +85,63 @@ std::string componentKey(const std::string& spec) {
     return key.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1);
 }
 
+/// A value moved so that it differs from the given one: numbers by `variant` (+1, -1, halved), each of
+/// an array's alike, true and false swapped; false when it cannot be (a string, a table).
+bool moveValue(toml::node& n, int variant) {
+    if (auto* a = n.as_array()) {
+        bool any = !a->empty();
+        for (auto& item : *a) {
+            any = moveValue(item, variant) && any;
+        }
+        return any;
+    }
+    if (auto* i = n.as_integer()) {
+        const std::int64_t v = i->get();
+        *i = variant == 0 ? v + 1 : variant == 1 ? v - 1 : v / 2 + (v == 0 ? 2 : 0);
+        return true;
+    }
+    if (auto* d = n.as_floating_point()) {
+        const double v = d->get();
+        *d = variant == 0 ? v + 1.0 : variant == 1 ? v - 1.0 : (v == 0.0 ? 0.5 : 0.5 * v);
+        return true;
+    }
+    if (auto* b = n.as_boolean()) {
+        *b = !b->get();
+        return variant == 0;
+    }
+    return false;
+}
+
+/// The load to compare a set with when it is applied: the earlier sets and this key at another value, so
+/// that whatever the key reaches differs from the set's own load and is taken, even where the set's value
+/// is the file's (a velocity set back to the file's [0, 0, 0] while the body moves). Where no other value
+/// loads (a string, a value at its range's end both ways), the earlier sets alone.
+void comparedWith(const Catalog& catalog, const Scenario& scenario, const std::vector<std::string>& earlier,
+                  const std::string& spec, std::uint64_t memoryCap, std::optional<Scratch>& before) {
+    const auto eq = spec.find('=');
+    toml::table parsed;
+    try {
+        parsed = toml::parse("v = " + spec.substr(eq + 1));
+    } catch (const toml::parse_error&) {
+        parsed = {};
+    }
+    for (int variant = 0; variant < 3 && parsed.contains("v"); ++variant) {
+        toml::table copy = parsed;
+        if (!moveValue(*copy.get("v"), variant)) {
+            continue;
+        }
+        std::vector<std::string> probe = earlier;
+        probe.push_back(spec.substr(0, eq) + "=" + oneLineToml(*copy.get("v")));
+        try {
+            before.emplace(catalog, scenario, probe, memoryCap);
+            return;
+        } catch (const ScenarioError&) {
+            // out of the key's range that way: try another
+        }
+    }
+    before.emplace(catalog, scenario, earlier, memoryCap);
+}
+
 } // namespace
 
 std::optional<std::string> checkSet(const Catalog& catalog, const Scenario& scenario,
@@ -137,7 +195,10 @@ void applySet(const Catalog& catalog, const Scenario& scenario, const std::vecto
               const std::string& spec, std::uint64_t memoryCap, World& live, SceneDef& scene) {
     std::vector<std::string> with = earlier;
     with.push_back(spec);
-    const Scratch before(catalog, scenario, earlier, memoryCap), after(catalog, scenario, with, memoryCap);
+    std::optional<Scratch> probe;
+    comparedWith(catalog, scenario, earlier, spec, memoryCap, probe);
+    const Scratch& before = *probe;
+    const Scratch after(catalog, scenario, with, memoryCap);
     patchScene(scene, before.scenario.scene, after.scenario.scene);
     patchScene(live.resource<SceneDef>(), before.scenario.scene, after.scenario.scene);
     for (Entity e : live.entities()) {

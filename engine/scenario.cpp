@@ -508,25 +508,17 @@ std::uint64_t firstStepReaching(double at, double dt) {
 /// A `set` event's own keys: `key` (what --set takes as KEY) and `value` (any TOML value), no entity.
 void readSetEvent(TableReader& r, EventDef& ev) {
     ev.action = r.requiredString("action");
-    // The key is the one --set takes (scene.gravity, curtain.cloth.stretch); with 'entity' it may leave out
-    // the entity's name (entity = "curtain", key = "cloth.stretch").
+    // The key is the one --set takes (scene.gravity, curtain.cloth.stretch); with 'entity', the key within
+    // that entity (entity = "curtain", key = "cloth.stretch").
     std::string key = r.requiredString("key");
     if (r.has("entity")) {
-        const std::string entity = r.requiredString("entity");
-        if (key.rfind(entity + ".", 0) != 0) {
-            key = entity + "." + key;
-        }
+        key = r.requiredString("entity") + "." + key;
     }
     const toml::node* value = r.node("value");
     if (!value) {
         r.fail("key", "a 'set' event needs a 'value' (a number, true/false, [array] or \"string\")");
     }
-    if (value->is_table()) {
-        r.fail("value", "a 'set' event's 'value' is one value, not a table");
-    }
-    std::ostringstream text; // as TOML writes it: a string quoted, an array bracketed
-    value->visit([&](auto&& n) { text << n; });
-    ev.set = key + "=" + text.str();
+    ev.set = key + "=" + oneLineToml(*value);
     r.finish();
 }
 
@@ -699,9 +691,28 @@ Scenario load(const Catalog& catalog, const std::string& path, std::string text,
     std::map<std::string, Entity> byName;
     readEntities(root, ctx, catalog, sc.scene, world, byName);
     readJoints(root, ctx, catalog, sc.scene, world, byName);
+    if (!checkSets) {
+        return sc; // a set event's scratch load (engine/retune.h): the scene alone, its events were read
+    }
     sc.events = readEvents(root, ctx, catalog, sc.scene, world, byName);
-    if (checkSets) {
-        // each set event, in the order they apply, against the scenario with the ones before it
+    {
+        // each set event, in the order they apply, against the scenario with the ones before it; each
+        // loads the scene twice more beside the running one, to see what the set changes
+        const auto setEvents = std::size_t(std::count_if(
+            sc.events.begin(), sc.events.end(), [](const EventDef& ev) { return ev.action == "set"; }));
+        if (setEvents > Limits::kMaxSetEvents) {
+            throw ScenarioError(path, 0, 0,
+                                std::to_string(setEvents) + " set events; at most " +
+                                    std::to_string(Limits::kMaxSetEvents) +
+                                    " (each loads the scene twice to see what it changes)");
+        }
+        if (setEvents > 0 && ctx.memoryCharged > memoryCap / 3) {
+            throw ScenarioError(path, 0, 0,
+                                "the scene needs about " + formatBytes(ctx.memoryCharged) +
+                                    " and its set events load it twice more beside it: about " +
+                                    formatBytes(3 * ctx.memoryCharged) + ", above the memory cap of " +
+                                    formatBytes(memoryCap) + " (--memory-cap MiB raises it)");
+        }
         std::vector<std::string> earlier;
         for (const EventDef& ev : sc.events) {
             if (ev.action != "set") {

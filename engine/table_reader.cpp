@@ -49,7 +49,6 @@ ScenarioError::ScenarioError(std::string file, int line, int column, const std::
     : std::runtime_error(formatLocation(file, line, column) + ": " + message), m_file(std::move(file)),
       m_line(line), m_column(column), m_message(message) {}
 
-namespace {
 std::string formatBytes(std::uint64_t bytes) {
     char text[32];
     if (bytes >= (1ull << 30)) {
@@ -61,7 +60,6 @@ std::string formatBytes(std::uint64_t bytes) {
     }
     return text;
 }
-} // namespace
 
 void LoadContext::charge(const toml::node* at, std::uint64_t bytes, const std::string& what) const {
     const std::uint64_t before = memoryCharged;
@@ -345,6 +343,39 @@ void TableReader::finish() const {
         }
         m_ctx.fail(&v, msg);
     }
+}
+
+std::string oneLineToml(const toml::node& n) {
+    if (const auto* a = n.as_array()) {
+        std::string out = "[";
+        for (std::size_t i = 0; i < a->size(); ++i) {
+            out += (i ? ", " : "") + oneLineToml(*a->get(i));
+        }
+        return out + "]";
+    }
+    if (const auto* t = n.as_table()) {
+        std::string out = "{";
+        bool first = true;
+        for (const auto& [k, v] : *t) {
+            std::ostringstream name;
+            name << toml::value<std::string>(std::string(k.str()));
+            out += (first ? " " : ", ") + name.str() + " = " + oneLineToml(v);
+            first = false;
+        }
+        return out + (first ? "}" : " }");
+    }
+    if (const auto* d = n.as_floating_point()) {
+        char text[40];
+        std::snprintf(text, sizeof text, "%.17g", d->get());
+        std::string out = text;
+        if (std::isfinite(d->get()) && out.find_first_of(".eE") == std::string::npos) {
+            out += ".0"; // still a float
+        }
+        return out;
+    }
+    std::ostringstream text;
+    n.visit([&](auto&& v) { text << v; });
+    return text.str();
 }
 
 } // namespace tumble

@@ -63,7 +63,15 @@ struct Limits {
     static constexpr std::size_t kMaxString = 4096;           ///< characters of any one string
     static constexpr std::int64_t kMaxEntities = 100000;      ///< entities after repeat/scatter
     static constexpr std::size_t kMaxLoadedNodes = 50u << 20; ///< component values read, copies included
+    static constexpr std::size_t kMaxSetEvents = 256;         ///< set events (each loads the scene twice)
 };
+
+/// A size for a message: "1.5 GiB", "320 MiB", "12 KiB".
+std::string formatBytes(std::uint64_t bytes);
+
+/// A TOML value on one line, as --set reads it back: numbers to the last bit, strings quoted, arrays and
+/// inline tables bracketed (toml++'s own printer breaks long arrays over lines).
+std::string oneLineToml(const toml::node& n);
 
 /// Typed reads of one table; see the header comment.
 class TableReader {

@@ -235,21 +235,29 @@ void addBodiesAndApplyPushes(World& world, Box2DWorld::Impl& impl) {
             b.teleported = false;
         }
         b2Body& body = *impl.body(b.bodyId);
-        if (!b.dynamic()) {
-            return;
-        }
         if (b.retuned) {
-            // a set event changed its mass or material (engine/retune.h)
+            // a set event changed its mass or material (engine/retune.h); the contacts it is in mixed their
+            // friction and restitution when they began, so they mix them again
             const double area = shapeArea2D(b);
             for (b2Fixture* f = body.GetFixtureList(); f; f = f->GetNext()) {
                 f->SetFriction(float(b.friction));
                 f->SetRestitution(float(b.restitution));
-                f->SetDensity(area > 0.0 ? float(b.mass / area) : 0.0f);
+                f->SetDensity(b.dynamic() && area > 0.0 ? float(b.mass / area) : 0.0f);
             }
-            body.ResetMassData();
-            body.SetSleepingAllowed(b.canSleep);
-            body.SetAwake(true);
+            for (b2ContactEdge* c = body.GetContactList(); c; c = c->next) {
+                c->contact->ResetFriction();
+                c->contact->ResetRestitution();
+                c->other->SetAwake(true);
+            }
+            if (b.dynamic()) {
+                body.ResetMassData();
+                body.SetSleepingAllowed(b.canSleep);
+                body.SetAwake(true);
+            }
             b.retuned = false;
+        }
+        if (!b.dynamic()) {
+            return;
         }
         if (b.teleported) {
             body.SetTransform(b2(b.position), float(b.angle));

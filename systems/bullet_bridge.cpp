@@ -384,20 +384,24 @@ void addBodiesAndApplyPushes(World& world, BulletWorld::Impl& impl) {
     addNewBodies(world, impl);
     world.view<RigidBody>().each([&](Entity, RigidBody& b) {
         btRigidBody& body = *impl.body(b.bodyId);
-        if (!b.dynamic()) {
-            return;
-        }
         if (b.retuned) {
             // a set event changed its mass, material or sleep (engine/retune.h)
-            btVector3 inertia(0, 0, 0);
-            body.getCollisionShape()->calculateLocalInertia(btScalar(b.mass), inertia);
-            body.setMassProps(btScalar(b.mass), inertia);
-            body.updateInertiaTensor();
+            if (b.dynamic()) {
+                btVector3 inertia(0, 0, 0);
+                body.getCollisionShape()->calculateLocalInertia(btScalar(b.mass), inertia);
+                body.setMassProps(btScalar(b.mass), inertia);
+                body.updateInertiaTensor();
+                body.forceActivationState(b.canSleep ? ACTIVE_TAG : DISABLE_DEACTIVATION);
+                body.activate(true);
+            }
+            // (Bullet mixes the materials of every contact point again each step: its contacts take them)
             body.setFriction(btScalar(b.friction));
             body.setRestitution(btScalar(b.restitution));
-            body.forceActivationState(b.canSleep ? ACTIVE_TAG : DISABLE_DEACTIVATION);
             body.activate(true);
             b.retuned = false;
+        }
+        if (!b.dynamic()) {
+            return;
         }
         if (b.teleported) {
             body.setWorldTransform(btTransform(bt(b.orientation), bt(b.position)));

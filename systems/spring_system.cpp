@@ -571,7 +571,10 @@ void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw
     takeChanged(net.doublePrecisionSolve, was.doublePrecisionSolve, now.doublePrecisionSolve);
     takeChanged(net.implicitCharged, was.implicitCharged, now.implicitCharged);
     takeChanged(net.blowUpFails, was.blowUpFails, now.blowUpFails);
-    const Vec3 moved = aw.get<Transform>(a).position - bw.get<Transform>(b).position;
+    // a set of the transform moves the masses from where the entity is now to where the set puts it (the
+    // load compared with may have it elsewhere again: engine/retune.cpp)
+    const Vec3& to = aw.get<Transform>(a).position;
+    const Vec3 moved = to != bw.get<Transform>(b).position ? to - w.get<Transform>(e).position : Vec3{};
     if (moved != Vec3{}) {
         for (Vec3& x : net.x) {
             x += moved;

@@ -4,6 +4,7 @@
 
 #include "components/particles.h"
 #include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
 #include "components/water.h"
 #include "tests/test_support.h"
@@ -187,6 +188,115 @@ value = 0.9
 )");
     run(*sim, 6);
     EXPECT_EQ(component<RigidBody>(*sim, "rock").friction, 0.9);
+}
+
+TEST(SetEvent, ASetToTheFilesOwnValueStillTakesHold) {
+    // the crate is given 2 m/s by an event, then set back to the file's own [0, 0, 0]: it stops (compared
+    // with the file alone, the set changed nothing and was lost); a long array comes through whole
+    auto sim = makeSimulation(R"(
+[scene]
+name = "stop"
+dt = 0.01
+gravity = [0, 0, 0]
+[[entity]]
+name = "crate"
+[entity.rigid_body]
+shape = "box"
+mass = 1.0
+sleep = false
+linear_velocity = [0, 0, 0]
+[[event]]
+frame = 2
+entity = "crate"
+action = "set_velocity"
+value = [2.0, 0, 0]
+[[event]]
+frame = 10
+action = "set"
+key = "crate.rigid_body.linear_velocity"
+value = [0, 0, 0]
+[[entity]]
+name = "sheet"
+[entity.transform]
+position = [50, 0, 0]
+[entity.cloth]
+rows = 4
+cols = 40
+pin = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39]
+[[event]]
+frame = 3
+action = "set"
+key = "sheet.cloth.pin"
+value = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38]
+)");
+    run(*sim, 9);
+    EXPECT_NEAR(component<RigidBody>(*sim, "crate").linearVelocity.x, 2.0, 1e-6);
+    run(*sim, 2);
+    EXPECT_EQ(component<RigidBody>(*sim, "crate").linearVelocity.x, 0.0) << "stopped by the set";
+    const SpringNetwork& sheet = component<SpringNetwork>(*sim, "sheet");
+    EXPECT_TRUE(sheet.pinned[38]);
+    EXPECT_FALSE(sheet.pinned[39]) << "the 40-element array came through";
+}
+
+TEST(SetEvent, FrictionSetToZeroReachesContactsAlreadyMadeInBothEngines) {
+    // a sideways pull of 2 m/s^2 held by friction; at frame 5 the friction of the (static) grounds goes to
+    // 0, so the mix with the bodies' (the geometric mean) is 0, and from then on each body slides as a
+    // frictionless one would: x = a t^2 / 2 (a static ground's material was never given to its engine, and
+    // Box2D's contacts made before the set kept their old friction: nothing slid)
+    auto sim = makeSimulation(R"(
+[scene]
+name = "slip"
+gravity = [2.0, -9.81, 0.0]
+[[entity]]
+name = "floor"
+[entity.transform]
+position = [0, -0.5, 0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [20, 0.5, 20]
+[[entity]]
+name = "crate"
+[entity.transform]
+position = [0.0, 0.5, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [0.5, 0.5, 0.5]
+mass = 10.0
+sleep = false
+[[entity]]
+name = "ground2d"
+[entity.rigid_body_2d]
+shape = "edge"
+from = [-20.0, 0.0]
+to = [20.0, 0.0]
+[[entity]]
+name = "box2d"
+[entity.transform]
+position = [3.0, 0.5, 5.0]
+[entity.rigid_body_2d]
+shape = "box"
+half_extents = [0.5, 0.5]
+mass = 10.0
+sleep = false
+[[event]]
+frame = 5
+action = "set"
+key = "floor.rigid_body.friction"
+value = 0.0
+[[event]]
+frame = 5
+action = "set"
+key = "ground2d.rigid_body_2d.friction"
+value = 0.0
+)");
+    run(*sim, 5);
+    const double crate0 = component<RigidBody>(*sim, "crate").position.x;
+    const double box0 = component<RigidBody2D>(*sim, "box2d").position[0];
+    EXPECT_LT(std::abs(crate0), 1e-3) << "held by friction before the set";
+    run(*sim, 60);
+    const double expected = 0.5 * 2.0 * 1.0 * 1.0; // a t^2 / 2 over the 60 frames (1 s) since the set
+    EXPECT_NEAR(component<RigidBody>(*sim, "crate").position.x - crate0, expected, 0.05 * expected);
+    EXPECT_NEAR(component<RigidBody2D>(*sim, "box2d").position[0] - box0, expected, 0.05 * expected);
 }
 
 TEST(SetEvent, ARunWithSetEventsReplaysBitForBit) {
