@@ -17,9 +17,10 @@ enum class Shape2DKind : std::uint8_t { Box, Circle, Polygon, Edge };
 using Vec2 = std::array<double, 2>;
 
 /// The depth of a 2D body in the 3D scene: a slab of this half depth about its entity's z, as it is drawn
-/// and as springs and particles collide with it (an edge: a strip of kEdgeHalfWidth either side).
-constexpr double kSlabHalfDepth = 0.25; ///< m
-constexpr double kEdgeHalfWidth = 0.02; ///< m
+/// and as springs and particles collide with it; an edge is a strip of kEdgeHalfWidth either side (less
+/// than the 1 cm skin Box2D keeps round a polygon, so a box resting on an edge leaves room between them).
+constexpr double kSlabHalfDepth = 0.25;  ///< m
+constexpr double kEdgeHalfWidth = 0.005; ///< m
 
 /// Shape, material, pose and velocities of a 2D rigid body.
 struct RigidBody2D {

@@ -520,6 +520,9 @@ void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat&
     orientation = {q.x / n, q.y / n, q.z / n, q.w / n};
 }
 
+/// An edge is drawn 4 cm wide, to be seen (it collides as a 1 cm strip: components/rigid_body_2d.h).
+constexpr double kEdgeDrawnHalfWidth = 0.02;
+
 void drawColliders(World& world, Renderer& r, double alpha) {
     const GLint modelLoc = r.mesh.model;
     const GLint colourLoc = r.mesh.colour;
@@ -570,41 +573,41 @@ void drawColliders(World& world, Renderer& r, double alpha) {
             break;
         }
     });
-    world.view<const RigidBody2D, const Transform>().each(
-        [&](Entity e, const RigidBody2D& b, const Transform& t) {
-            const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
-            Quat q = aboutZ(b.angle);
-            Vec3 at{b.position[0], b.position[1], t.position.z};
-            drawnPose(world, e, alpha, at, q);
-            const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
-            switch (b.shape) {
-            case Shape2DKind::Box:
-                draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour,
-                     false);
-                break;
-            case Shape2DKind::Circle:
-                // the unit cylinder stands along y: lay it along z
-                draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour,
-                     false);
-                break;
-            case Shape2DKind::Polygon: {
-                const Mesh prism = upload(prismMesh(b.vertices));
-                draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour, false);
-                glDeleteBuffers(1, &prism.vbo);
-                glDeleteVertexArrays(1, &prism.vao);
-                break;
-            }
-            case Shape2DKind::Edge: {
-                const Vec3 from = at + ax * b.from[0] + ay * b.from[1], to = at + ax * b.to[0] + ay * b.to[1];
-                const Vec3 along = to - from;
-                const double len = length(along);
-                const Vec3 ex = along * (1.0 / len), ey = cross({0, 0, 1}, ex);
-                draw(r.cube, model((from + to) * 0.5, {0.5 * len, kEdgeHalfWidth, kSlabHalfDepth}, ex, ey),
-                     colour, false);
-                break;
-            }
-            }
-        });
+    world.view<const RigidBody2D, const Transform>().each([&](Entity e, const RigidBody2D& b,
+                                                              const Transform& t) {
+        const std::array<float, 4> colour{float(b.color.x), float(b.color.y), float(b.color.z), 1.0f};
+        Quat q = aboutZ(b.angle);
+        Vec3 at{b.position[0], b.position[1], t.position.z};
+        drawnPose(world, e, alpha, at, q);
+        const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
+        switch (b.shape) {
+        case Shape2DKind::Box:
+            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour,
+                 false);
+            break;
+        case Shape2DKind::Circle:
+            // the unit cylinder stands along y: lay it along z
+            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour,
+                 false);
+            break;
+        case Shape2DKind::Polygon: {
+            const Mesh prism = upload(prismMesh(b.vertices));
+            draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour, false);
+            glDeleteBuffers(1, &prism.vbo);
+            glDeleteVertexArrays(1, &prism.vao);
+            break;
+        }
+        case Shape2DKind::Edge: {
+            const Vec3 from = at + ax * b.from[0] + ay * b.from[1], to = at + ax * b.to[0] + ay * b.to[1];
+            const Vec3 along = to - from;
+            const double len = length(along);
+            const Vec3 ex = along * (1.0 / len), ey = cross({0, 0, 1}, ex);
+            draw(r.cube, model((from + to) * 0.5, {0.5 * len, kEdgeDrawnHalfWidth, kSlabHalfDepth}, ex, ey),
+                 colour, false);
+            break;
+        }
+        }
+    });
 }
 
 /// Draws r.clothVertices (position and normal per corner, in world space) as lit triangles of one colour.

@@ -18,6 +18,17 @@ namespace tumble {
 
 namespace {
 
+/// The lightest moving body: both engines compute in float, where a mass below about 1e-38 kg is zero (a
+/// static body) and one near it gives an inverse mass that overflows.
+constexpr double kLightestBody = 1e-6; ///< kg
+
+std::string lightestMessage(double mass) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%g", mass);
+    return std::string("a moving body's mass is ") + text +
+           " kg, below the least the engines' float arithmetic carries (1e-6 kg); 0 makes it static";
+}
+
 constexpr double kHuge = 1e9;
 
 /// What one body costs in its engine (the body, its shape, its broad-phase proxy and contacts), roughly.
@@ -96,6 +107,9 @@ void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&)
         b.mesh = loadMesh(r, world, b.shape == ShapeKind::Convex);
     }
     b.mass = r.number("mass", 0.0, 0.0, 1e9);
+    if (b.mass > 0.0 && b.mass < kLightestBody) {
+        r.fail("mass", lightestMessage(b.mass));
+    }
     if (b.mass > 0.0 && (b.shape == ShapeKind::Plane || b.shape == ShapeKind::Mesh)) {
         r.fail("mass", "a " + shape + " can only be static (mass = 0)" +
                            (b.shape == ShapeKind::Mesh ? "; a moving mesh is a 'convex' shape" : ""));
@@ -203,6 +217,9 @@ void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef
         break;
     }
     b.mass = r.number("mass", 0.0, 0.0, 1e9);
+    if (b.mass > 0.0 && b.mass < kLightestBody) {
+        r.fail("mass", lightestMessage(b.mass));
+    }
     if (b.mass > 0.0 && b.shape == Shape2DKind::Edge) {
         r.fail("mass", "an edge has no area to carry a mass: it can only be static (mass = 0)");
     }

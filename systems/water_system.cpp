@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 namespace tumble {
@@ -23,6 +24,7 @@ constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of
 constexpr int kMaxNodes = 2048;    ///< per side
 constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22; ///< all surfaces: 4M (2048 x 2048)
 constexpr double kMaxNodeStepsPerStep = 1e8;                    ///< wave-step node updates in one fixed step
+constexpr double kCellsPerWave = 8.0; ///< the shortest wave a maker may make, in cells (the grid carries it)
 
 /// Water nodes loaded so far in the scene (a load-time tally).
 struct WaterNodes {
@@ -58,6 +60,18 @@ void loadWater(TableReader& r, World& world, Entity entity, const SceneDef& scen
         if (w.maker.amplitude >= w.depth && w.depth > 0.0) {
             m.fail("amplitude", "a wave maker's amplitude must be below the water's depth (" +
                                     std::to_string(w.depth) + " m)");
+        }
+        // a wave shorter than a few cells is not carried by the grid: it stays by the maker and piles up
+        const double cell = std::max(w.sizeX / (w.nx - 1), w.sizeZ / (w.nz - 1));
+        if (w.waveSpeed * w.maker.period < kCellsPerWave * cell) {
+            char text[240];
+            std::snprintf(
+                text, sizeof text,
+                "the maker's waves (wave_speed x period = %g m) are shorter than %g cells of the grid "
+                "(%g m): make the period at least %g s, or the cells smaller",
+                w.waveSpeed * w.maker.period, kCellsPerWave, kCellsPerWave * cell,
+                kCellsPerWave * cell / w.waveSpeed);
+            m.fail("period", text);
         }
     }
     w.centre = world.get<Transform>(entity).position;
@@ -374,6 +388,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     }
     const double area = w.dx() * w.dz(), sub = 0.25 * area; // a node's cell, a quarter of it
     const double g = std::max(0.0, -gravity.y);             // the stiffness of the waterline: rho g
+    const double floor = w.centre.y - w.depth;              // the pool's floor: no water below it
     bool touched = false; // whether any body reaches into the water this step
     auto coupleBody = [&](RigidBody& b) {
         // the nodes under the body's horizontal reach
@@ -411,14 +426,16 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                         if (!verticalExtent(b, x, z, bottom, top)) {
                             continue;
                         }
-                        const double depth = std::clamp(surface - bottom, 0.0, top - bottom);
+                        // the part in the water: between the pool's floor and the surface
+                        const double low = std::max(bottom, floor);
+                        const double depth = std::min(surface, top) - low;
                         if (depth <= 0.0) {
                             continue;
                         }
                         under += 0.25 * depth;
                         volume += depth * sub;
-                        centre += Vec3{x, bottom + 0.5 * depth, z} * (depth * sub);
-                        if (depth < top - bottom) { // the column crosses the surface: part of the waterline
+                        centre += Vec3{x, low + 0.5 * depth, z} * (depth * sub);
+                        if (top > surface) { // the column crosses the surface: part of the waterline
                             const double rx = x - b.position.x, rz = z - b.position.z;
                             waterline += sub;
                             waterlineMoment += sub * (rx * rx + rz * rz);

@@ -318,5 +318,16 @@ TEST(Water, A2DSquareFloatsAsItsSlabAtItsDraftAndTurnsAsItsMetacentreSays) {
     EXPECT_NEAR(turned, quarter / 2.0, 0.05) << "s = 0.4: GM < 0, released at 0.1 rad it turns a corner down";
 }
 
+TEST(Water, NothingBelowThePoolsFloorIsBuoyed) {
+    // a box of 500 kg/m^3 held 2.5 m under the rest level in water 0.5 m deep is below the pool: no water
+    // lifts it, it falls freely (its velocity after 0.3 s is g t, to the step's rounding)
+    auto sim = test::makeSimulation(pool(0.01, "cells = [21, 21]\nsize = [4.0, 4.0]\ndepth = 0.5\n",
+                                         box("deep", 0.2, 500.0, "[0.0, -2.5, 0.0]")));
+    for (int f = 0; f < 30; ++f) {
+        sim->runFrame();
+    }
+    EXPECT_NEAR(test::component<RigidBody>(*sim, "deep").linearVelocity.y, -9.81 * 0.3, 1e-3);
+}
+
 } // namespace
 } // namespace tumble
