@@ -85,6 +85,36 @@ std::string componentKey(const std::string& spec) {
     return key.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1);
 }
 
+/// What a running scene cannot take between two loads of it (a fixed scene setting, entities or components
+/// added or removed, a component's own refusal), or nothing.
+std::optional<std::string> cannotTake(const Catalog& catalog, const Scratch& before, const Scratch& after) {
+    if (auto fixed = fixedSceneSetting(before.scenario.scene, after.scenario.scene)) {
+        return fixed;
+    }
+    if (before.byName.size() != after.byName.size()) {
+        return std::string("it would add or remove entities, which a running scene cannot");
+    }
+    for (const auto& [name, b] : before.byName) {
+        const auto found = after.byName.find(name);
+        if (found == after.byName.end()) {
+            return std::string("it would add or remove entities, which a running scene cannot");
+        }
+        const Entity a = found->second;
+        for (const Retune& r : catalog.retunes()) {
+            if (r.has(before.world, b) != r.has(after.world, a)) {
+                return "it would add or remove a component of '" + name + "', which a running scene cannot";
+            }
+            if (!r.has(before.world, b)) {
+                continue;
+            }
+            if (auto problem = r.check(before.world, b, after.world, a)) {
+                return problem;
+            }
+        }
+    }
+    return std::nullopt;
+}
+
 /// A value moved so that it differs from the given one: numbers by `variant` (+1, -1, halved), each of
 /// an array's alike, true and false swapped; false when it cannot be (a string, a table).
 bool moveValue(toml::node& n, int variant) {
@@ -117,7 +147,8 @@ bool moveValue(toml::node& n, int variant) {
 /// is the file's (a velocity set back to the file's [0, 0, 0] while the body moves). Where no other value
 /// loads (a string, a value at its range's end both ways), the earlier sets alone.
 void comparedWith(const Catalog& catalog, const Scenario& scenario, const std::vector<std::string>& earlier,
-                  const std::string& spec, std::uint64_t memoryCap, std::optional<Scratch>& before) {
+                  const std::string& spec, std::uint64_t memoryCap, const Scratch& after,
+                  std::optional<Scratch>& before) {
     const auto eq = spec.find('=');
     toml::table parsed;
     try {
@@ -134,10 +165,13 @@ void comparedWith(const Catalog& catalog, const Scenario& scenario, const std::v
         probe.push_back(spec.substr(0, eq) + "=" + oneLineToml(*copy.get("v")));
         try {
             before.emplace(catalog, scenario, probe, memoryCap);
-            return;
         } catch (const ScenarioError&) {
-            // out of the key's range that way: try another
+            continue; // out of the key's range that way: try another
         }
+        if (!cannotTake(catalog, *before, after)) {
+            return; // (a moved value that would reshape a thing, rows = 7 for rows = 6, is no comparison)
+        }
+        before.reset();
     }
     before.emplace(catalog, scenario, earlier, memoryCap);
 }
@@ -163,30 +197,8 @@ std::optional<std::string> checkSet(const Catalog& catalog, const Scenario& scen
     } catch (const ScenarioError& e) {
         return e.message();
     }
-    if (auto fixed = fixedSceneSetting(before->scenario.scene, after->scenario.scene)) {
-        return quoted(spec) + ": " + *fixed;
-    }
-    if (before->byName.size() != after->byName.size()) {
-        return quoted(spec) + ": it would add or remove entities, which a running scene cannot";
-    }
-    for (const auto& [name, b] : before->byName) {
-        const auto found = after->byName.find(name);
-        if (found == after->byName.end()) {
-            return quoted(spec) + ": it would add or remove entities, which a running scene cannot";
-        }
-        const Entity a = found->second;
-        for (const Retune& r : catalog.retunes()) {
-            if (r.has(before->world, b) != r.has(after->world, a)) {
-                return quoted(spec) + ": it would add or remove a component of '" + name +
-                       "', which a running scene cannot";
-            }
-            if (!r.has(before->world, b)) {
-                continue;
-            }
-            if (auto problem = r.check(before->world, b, after->world, a)) {
-                return quoted(spec) + ": " + *problem;
-            }
-        }
+    if (auto problem = cannotTake(catalog, *before, *after)) {
+        return quoted(spec) + ": " + *problem;
     }
     return std::nullopt;
 }
@@ -195,10 +207,10 @@ void applySet(const Catalog& catalog, const Scenario& scenario, const std::vecto
               const std::string& spec, std::uint64_t memoryCap, World& live, SceneDef& scene) {
     std::vector<std::string> with = earlier;
     with.push_back(spec);
-    std::optional<Scratch> probe;
-    comparedWith(catalog, scenario, earlier, spec, memoryCap, probe);
-    const Scratch& before = *probe;
     const Scratch after(catalog, scenario, with, memoryCap);
+    std::optional<Scratch> probe;
+    comparedWith(catalog, scenario, earlier, spec, memoryCap, after, probe);
+    const Scratch& before = *probe;
     patchScene(scene, before.scenario.scene, after.scenario.scene);
     patchScene(live.resource<SceneDef>(), before.scenario.scene, after.scenario.scene);
     for (Entity e : live.entities()) {

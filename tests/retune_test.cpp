@@ -299,6 +299,27 @@ value = 0.0
     EXPECT_NEAR(component<RigidBody2D>(*sim, "box2d").position[0] - box0, expected, 0.05 * expected);
 }
 
+TEST(SetEvent, ASetOfAShapeKeyToItsOwnValueChangesNothing) {
+    // rows = 6 for a 6-row cloth is allowed (nothing changes); compared with a load at rows = 7, every mass
+    // would differ and the 7-row cloth's pins and masses would be written into the 6-row one
+    auto sim = makeSimulation(std::string(kCurtain) + R"(
+[[event]]
+frame = 2
+action = "set"
+key = "sheet.cloth.rows"
+value = 6
+)");
+    run(*sim, 2);
+    const SpringNetwork before = component<SpringNetwork>(*sim, "sheet");
+    run(*sim, 1);
+    const SpringNetwork& after = component<SpringNetwork>(*sim, "sheet");
+    EXPECT_EQ(after.pinned, before.pinned);
+    EXPECT_EQ(after.invMass, before.invMass);
+    for (std::size_t k = 0; k < after.links.size(); ++k) {
+        EXPECT_EQ(after.links[k].rest, before.links[k].rest) << "link " << k;
+    }
+}
+
 TEST(SetEvent, ARunWithSetEventsReplaysBitForBit) {
     // from the scenario and from --input: both are recorded, and the replay verifies
     const std::string scenario = test::writeTemp("set_replay.toml", std::string(kCurtain) + R"(
