@@ -42,7 +42,9 @@ struct RigidBody {
     double mass = 0.0;                     ///< kg; 0 = static
     double friction = 0.6;
     double restitution = 0.0;
-    bool canSleep = true;         ///< Bullet may put it to sleep when it rests
+    bool canSleep = true; ///< Bullet may put it to sleep when it rests
+    bool slab =
+        false; ///< a 2D body's stand-in (systems/collision_system.h slabOf): what is inside leaves in-plane
     Vec3 color{0.62, 0.60, 0.56}; ///< RGB in [0, 1], for the renderer only
 
     // state, as the bridge last left it (the loader sets the start)

@@ -82,12 +82,54 @@ constexpr double kMeshNear = 1.0;
 
 } // namespace
 
+namespace {
+
+/// Inside a 2D body's slab, the way out in its plane: the nearest of its sides, never the slab's faces (a
+/// rope mass a fast box ran into went out through the face and the rope left the plane for good).
+double inPlaneDistance(const RigidBody& slab, const Vec3& d, Vec3& normal) {
+    switch (slab.shape) {
+    case ShapeKind::Box: {
+        const double qx = std::abs(d.x) - slab.halfExtents.x, qy = std::abs(d.y) - slab.halfExtents.y;
+        normal = qx > qy ? Vec3{d.x < 0.0 ? -1.0 : 1.0, 0.0, 0.0} : Vec3{0.0, d.y < 0.0 ? -1.0 : 1.0, 0.0};
+        return std::max(qx, qy);
+    }
+    case ShapeKind::Cylinder: { // a circle: its axis, the body's y, lies along the world's z
+        const double radial = std::sqrt(d.x * d.x + d.z * d.z);
+        normal = radial > 1e-12 ? Vec3{d.x / radial, 0.0, d.z / radial} : Vec3{1.0, 0.0, 0.0};
+        return radial - slab.radius;
+    }
+    case ShapeKind::Convex: { // a prism: its side faces
+        const ShapeMesh& m = *slab.mesh;
+        double best = -1e300;
+        for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+            if (std::abs(m.faceNormals[t].z) > 0.5) {
+                continue;
+            }
+            const double dist = dot(d - m.vertices[m.triangles[t][0]], m.faceNormals[t]);
+            if (dist > best) {
+                best = dist;
+                normal = m.faceNormals[t];
+            }
+        }
+        return best;
+    }
+    default:
+        return localSignedDistance(slab, d, normal);
+    }
+}
+
+} // namespace
+
 double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal) {
     if (body.shape == ShapeKind::Plane) {
         normal = body.normal;
         return dot(p - body.position, body.normal);
     }
-    const double d = localSignedDistance(body, body.toLocal(p), normal);
+    const Vec3 local = body.toLocal(p);
+    double d = localSignedDistance(body, local, normal);
+    if (body.slab && d < 0.0) {
+        d = inPlaneDistance(body, local, normal);
+    }
     normal = rotate(body.orientation, normal);
     return d;
 }
@@ -397,6 +439,7 @@ std::shared_ptr<const ShapeMesh> prismOf(const std::vector<Vec2>& polygon, doubl
 
 RigidBody slabOf(const RigidBody2D& b, double z, double dt) {
     RigidBody s;
+    s.slab = true;
     s.mass = b.mass;
     s.friction = b.friction;
     s.restitution = b.restitution;
