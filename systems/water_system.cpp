@@ -24,7 +24,9 @@ constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of
 constexpr int kMaxNodes = 2048;    ///< per side
 constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22; ///< all surfaces: 4M (2048 x 2048)
 constexpr double kMaxNodeStepsPerStep = 1e8;                    ///< wave-step node updates in one fixed step
-constexpr double kCellsPerWave = 8.0; ///< the shortest wave a maker may make, in cells (the grid carries it)
+constexpr double kCellsPerWave = 8.0;  ///< the shortest wave a maker may make, in cells (the grid carries it)
+constexpr int kColumnsAcross = 24;     ///< a floating body's columns across its reach, at least
+constexpr int kMostColumnsAcross = 96; ///< and at most (a body of many cells: two a cell up to this)
 
 /// Water nodes loaded so far in the scene (a load-time tally).
 struct WaterNodes {
@@ -299,6 +301,40 @@ bool verticalExtent(const RigidBody& b, double x, double z, double& bottom, doub
     return true;
 }
 
+/// The box a body fills in the world (its own box, turned with it), from lo to hi.
+void horizontalBox(const RigidBody& b, Vec3& lo, Vec3& hi) {
+    Vec3 low, high; // in the body's frame
+    switch (b.shape) {
+    case ShapeKind::Sphere:
+        high = {b.radius, b.radius, b.radius};
+        break;
+    case ShapeKind::Box:
+        high = b.halfExtents;
+        break;
+    case ShapeKind::Capsule:
+        high = {b.radius, 0.5 * b.height + b.radius, b.radius};
+        break;
+    case ShapeKind::Cylinder:
+        high = {b.radius, 0.5 * b.height, b.radius};
+        break;
+    default:
+        low = b.mesh ? b.mesh->lo : Vec3{-0.5, -0.5, -0.5};
+        high = b.mesh ? b.mesh->hi : Vec3{0.5, 0.5, 0.5};
+    }
+    if (b.shape != ShapeKind::Convex) {
+        low = high * -1.0;
+    }
+    const Vec3 half = (high - low) * 0.5, mid = b.toWorld((high + low) * 0.5);
+    Vec3 reach;
+    for (const Vec3& axis : {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}}) {
+        const Vec3 along = rotate(b.orientation, axis);
+        const double s = axis.x != 0 ? half.x : axis.y != 0 ? half.y : half.z;
+        reach += Vec3{std::abs(along.x), std::abs(along.y), std::abs(along.z)} * s;
+    }
+    lo = mid - reach;
+    hi = mid + reach;
+}
+
 /// The smallest half size of a body: its moment of inertia is at least 0.4 m r^2 with r this.
 double smallestHalfExtent(const RigidBody& b) {
     switch (b.shape) {
@@ -349,21 +385,29 @@ double bodyVolume(const RigidBody& b) {
     }
 }
 
+/// Where world (x, z), on the grid, falls between nodes: the node below-left of it (n00), the one above
+/// it in z (n01; n00 + 1 and n01 + 1 are their neighbours in x), and how far along each way (0 to 1).
+struct Corners {
+    std::size_t n00 = 0, n01 = 0;
+    double fx = 0.0, fz = 0.0;
+};
+
+Corners cornersAt(const Water& w, double x, double z) {
+    const double gx = std::clamp((x - w.nodeX(0)) / w.dx(), 0.0, double(w.nx - 1));
+    const double gz = std::clamp((z - w.nodeZ(0)) / w.dz(), 0.0, double(w.nz - 1));
+    const int i = std::min(int(gx), w.nx - 2), k = std::min(int(gz), w.nz - 2);
+    Corners c;
+    c.n00 = std::size_t(k) * w.nx + i;
+    c.n01 = c.n00 + std::size_t(w.nx);
+    c.fx = gx - i;
+    c.fz = gz - k;
+    return c;
+}
+
 /// A node's share of its cell inside the grid (1, a half on an edge, a quarter in a corner): the wave step
 /// keeps the sum of share x height between reflecting borders, so the water's volume is that sum x dx dz.
 double nodeShare(const Water& w, int i, int k) {
     return (i == 0 || i == w.nx - 1 ? 0.5 : 1.0) * (k == 0 || k == w.nz - 1 ? 0.5 : 1.0);
-}
-
-/// The slope of the ambient surface at node (i, k): central differences, one-sided on the grid's edges.
-Vec3 ambientSlope(const Water& w, int i, int k) {
-    const double* a = w.ambient.data() + std::size_t(k) * w.nx;
-    const int il = std::max(i - 1, 0), ir = std::min(i + 1, w.nx - 1);
-    const int kl = std::max(k - 1, 0), kr = std::min(k + 1, w.nz - 1);
-    const double sx = (a[ir] - a[il]) / (w.dx() * (ir - il));
-    const double sz = (w.ambient[std::size_t(kr) * w.nx + i] - w.ambient[std::size_t(kl) * w.nx + i]) /
-                      (w.dz() * (kr - kl));
-    return {sx, 0.0, sz};
 }
 
 /// Buoyancy, drag and displacement between one water surface and the moving bodies in it.
@@ -371,8 +415,9 @@ Vec3 ambientSlope(const Water& w, int i, int k) {
 /// Bodies float on the ambient surface (the waves they did not make), so that their own dent never lifts
 /// or sinks them: read from the surface they dent, a body fed back into itself (a sinking crate's trough
 /// sank it further; the displaced water piled around it pushed it out harder than it came in) and grew
-/// without bound. The body is cut into columns, four to a node's cell, each with its exact vertical extent
-/// (what rights a tilted box: its columns are deeper on its low side), and each column's
+/// without bound. The body is cut into columns on a grid of its own (at least 16 across, two a water
+/// cell), each with its exact vertical extent (what rights a tilted box: its columns are deeper on its low
+/// side) against the ambient surface read between the nodes, and each column's
 /// submerged part is lifted by the weight of its water at its middle. The lift's response to the body's
 /// own motion is taken implicitly (the heave and tilt stiffness of the waterline, rho g times its area and
 /// its second moment) with the water moving along (added mass, half the submerged volume's water), so a
@@ -386,10 +431,10 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     if (!w.occupyingZero || now.size() != w.h.size()) {
         now.assign(w.h.size(), 0.0); // (kept clear while no body is in the water: a pass over the grid)
     }
-    const double area = w.dx() * w.dz(), sub = 0.25 * area; // a node's cell, a quarter of it
-    const double g = std::max(0.0, -gravity.y);             // the stiffness of the waterline: rho g
-    const double floor = w.centre.y - w.depth;              // the pool's floor: no water below it
-    bool touched = false; // whether any body reaches into the water this step
+    const double area = w.dx() * w.dz();        // a node's cell
+    const double g = std::max(0.0, -gravity.y); // the stiffness of the waterline: rho g
+    const double floor = w.centre.y - w.depth;  // the pool's floor: no water below it
+    bool touched = false;                       // whether any body reaches into the water this step
     auto coupleBody = [&](RigidBody& b) {
         // the nodes under the body's horizontal reach
         const double reach = reachOf(b);
@@ -412,41 +457,62 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                              std::all_of(w.v.begin(), w.v.end(), [](double x) { return x == 0.0; }) &&
                              w.maker.edge < 0;
         }
+        // the body's columns on a grid of its own over its box in the world (exact for an upright box), at
+        // least kColumnsAcross a side and two a water cell, so that the footprint does not depend on where
+        // the body sits on the water's grid (sampled at the nodes, a cube between them settled tilted and a
+        // 3 cm ball sank)
+        const double spanX = w.nodeX(w.nx - 1), spanZ = w.nodeZ(w.nz - 1);
+        Vec3 lo, hi;
+        horizontalBox(b, lo, hi);
+        const double cell = std::min(w.dx(), w.dz());
+        const int acrossX =
+            std::clamp(int(std::ceil(2.0 * (hi.x - lo.x) / cell)), kColumnsAcross, kMostColumnsAcross);
+        const int acrossZ =
+            std::clamp(int(std::ceil(2.0 * (hi.z - lo.z) / cell)), kColumnsAcross, kMostColumnsAcross);
+        const double stepX = (hi.x - lo.x) / acrossX, stepZ = (hi.z - lo.z) / acrossZ, column = stepX * stepZ;
         double volume = 0.0, waterline = 0.0, waterlineMoment = 0.0;
         Vec3 centre, slope;
-        for (int k = k0; k <= k1; ++k) {
-            for (int i = i0; i <= i1; ++i) {
-                const std::size_t n = std::size_t(k) * w.nx + i;
-                const double surface = w.centre.y + w.ambient[n];
-                double under = 0.0; // the submerged length of this node's columns, their mean
-                for (const double fx : {-0.25, 0.25}) {
-                    for (const double fz : {-0.25, 0.25}) {
-                        const double x = w.nodeX(i) + fx * w.dx(), z = w.nodeZ(k) + fz * w.dz();
-                        double bottom = 0.0, top = 0.0;
-                        if (!verticalExtent(b, x, z, bottom, top)) {
-                            continue;
-                        }
-                        // the part in the water: between the pool's floor and the surface
-                        const double low = std::max(bottom, floor);
-                        const double depth = std::min(surface, top) - low;
-                        if (depth <= 0.0) {
-                            continue;
-                        }
-                        under += 0.25 * depth;
-                        volume += depth * sub;
-                        centre += Vec3{x, low + 0.5 * depth, z} * (depth * sub);
-                        if (top > surface) { // the column crosses the surface: part of the waterline
-                            const double rx = x - b.position.x, rz = z - b.position.z;
-                            waterline += sub;
-                            waterlineMoment += sub * (rx * rx + rz * rz);
-                        }
-                    }
+        for (int v = 0; v < acrossZ; ++v) {
+            const double z = lo.z + (v + 0.5) * stepZ;
+            if (z < w.nodeZ(0) || z > spanZ) {
+                continue; // off the water
+            }
+            for (int u = 0; u < acrossX; ++u) {
+                const double x = lo.x + (u + 0.5) * stepX;
+                double bottom = 0.0, top = 0.0;
+                if (x < w.nodeX(0) || x > spanX || !verticalExtent(b, x, z, bottom, top)) {
+                    continue;
                 }
-                if (under > 0.0) {
-                    now[n] += under;
-                    touched = true;
-                    slope += ambientSlope(w, i, k) * (under * area);
+                // the ambient surface there, bilinear between the four nodes round it, and its slope
+                const Corners c = cornersAt(w, x, z);
+                const double* a = w.ambient.data();
+                const double a00 = a[c.n00], a10 = a[c.n00 + 1], a01 = a[c.n01], a11 = a[c.n01 + 1];
+                const double surface = w.centre.y + (a00 * (1.0 - c.fx) + a10 * c.fx) * (1.0 - c.fz) +
+                                       (a01 * (1.0 - c.fx) + a11 * c.fx) * c.fz;
+                // the part in the water: between the pool's floor and the surface
+                const double low = std::max(bottom, floor);
+                const double depth = std::min(surface, top) - low;
+                if (depth <= 0.0) {
+                    continue;
                 }
+                const double displaced = depth * column;
+                volume += displaced;
+                centre += Vec3{x, low + 0.5 * depth, z} * displaced;
+                slope += Vec3{((a10 - a00) * (1.0 - c.fz) + (a11 - a01) * c.fz) / w.dx(), 0.0,
+                              ((a01 - a00) * (1.0 - c.fx) + (a11 - a10) * c.fx) / w.dz()} *
+                         displaced;
+                if (top > surface) { // the column crosses the surface: part of the waterline
+                    const double rx = x - b.position.x, rz = z - b.position.z;
+                    waterline += column;
+                    waterlineMoment += column * (rx * rx + rz * rz);
+                }
+                // the water it displaces leaves the four nodes round it, as heights over their cells
+                const double height = displaced / area;
+                now[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz);
+                now[c.n00 + 1] += height * c.fx * (1.0 - c.fz);
+                now[c.n01] += height * (1.0 - c.fx) * c.fz;
+                now[c.n01 + 1] += height * c.fx * c.fz;
+                touched = true;
             }
         }
         if (volume <= 0.0) {

@@ -329,5 +329,35 @@ TEST(Water, NothingBelowThePoolsFloorIsBuoyed) {
     EXPECT_NEAR(test::component<RigidBody>(*sim, "deep").linearVelocity.y, -9.81 * 0.3, 1e-3);
 }
 
+TEST(Water, WhereABodySitsOnTheGridChangesNeitherItsDraftNorItsTilt) {
+    // on a 0.125 m grid: a 0.5 m cube of 900 kg/m^3 (stable flat: its metacentric height is positive at
+    // s > 0.79) between the nodes, an upright cylinder of 900, a 10 cm cube and a 3 cm ball of 500: each
+    // floats at Archimedes' draft, upright (sampled at the nodes, the first tilted 10 degrees, the cylinder's
+    // draft came out 5% short, the small cube and the ball sank)
+    const double pi = std::numbers::pi;
+    const std::string bodies =
+        box("cube", 0.25, 900.0, "[0.3, -0.2, 0.2]") +
+        "[[entity]]\nname = \"drum\"\n[entity.transform]\nposition = [-2.0, -0.2, 1.53]\n"
+        "[entity.rigid_body]\nshape = \"cylinder\"\nradius = 0.3\nheight = 0.5\nsleep = false\nmass = " +
+        std::to_string(900.0 * pi * 0.09 * 0.5) + "\n" + box("chip", 0.05, 500.0, "[2.031, 0.0, 2.031]") +
+        "[[entity]]\nname = \"bead\"\n[entity.transform]\nposition = [-2.03, 0.0, -2.07]\n"
+        "[entity.rigid_body]\nshape = \"sphere\"\nradius = 0.03\nsleep = false\nmass = " +
+        std::to_string(500.0 * 4.0 / 3.0 * pi * 0.03 * 0.03 * 0.03) + "\n";
+    auto sim = test::makeSimulation(
+        pool(1.0 / 60.0, "cells = [81, 81]\nsize = [10.0, 10.0]\ndepth = 2.0\ndamping = 0.5\ndrag = 5.0\n",
+             bodies));
+    for (int f = 0; f < 900; ++f) {
+        sim->runFrame();
+    }
+    const RigidBody& cube = test::component<RigidBody>(*sim, "cube");
+    EXPECT_NEAR(cube.position.y, 0.25 - 0.9 * 0.5, 0.01);
+    EXPECT_LT(tiltDegrees(cube), 1.0);
+    const RigidBody& drum = test::component<RigidBody>(*sim, "drum");
+    EXPECT_NEAR(drum.position.y, 0.25 - 0.9 * 0.5, 0.01);
+    EXPECT_LT(tiltDegrees(drum), 1.0);
+    EXPECT_NEAR(test::component<RigidBody>(*sim, "chip").position.y, 0.05 - 0.5 * 0.1, 0.005);
+    EXPECT_NEAR(test::component<RigidBody>(*sim, "bead").position.y, 0.0, 0.003) << "half under";
+}
+
 } // namespace
 } // namespace tumble
