@@ -3,6 +3,7 @@
 #include "engine/name.h"
 #include "engine/transform.h"
 
+#include <limits>
 #include <map>
 #include <optional>
 
@@ -127,7 +128,11 @@ bool moveValue(toml::node& n, int variant) {
     }
     if (auto* i = n.as_integer()) {
         const std::int64_t v = i->get();
-        *i = variant == 0 ? v + 1 : variant == 1 ? v - 1 : v / 2 + (v == 0 ? 2 : 0);
+        constexpr std::int64_t top = std::numeric_limits<std::int64_t>::max();
+        constexpr std::int64_t bottom = std::numeric_limits<std::int64_t>::min();
+        *i = variant == 0   ? (v < top ? v + 1 : v - 1)
+             : variant == 1 ? (v > bottom ? v - 1 : v + 1)
+                            : v / 2 + (v == 0 ? 2 : 0);
         return true;
     }
     if (auto* d = n.as_floating_point()) {
@@ -144,8 +149,8 @@ bool moveValue(toml::node& n, int variant) {
 
 /// The load to compare a set with when it is applied: the earlier sets and this key at another value, so
 /// that whatever the key reaches differs from the set's own load and is taken, even where the set's value
-/// is the file's (a velocity set back to the file's [0, 0, 0] while the body moves). Where no other value
-/// loads (a string, a value at its range's end both ways), the earlier sets alone.
+/// is the file's (a velocity set back to the file's [0, 0, 0] while the body moves). None where no other
+/// value loads (a string, a value at its range's end both ways) or would reshape a thing.
 void comparedWith(const Catalog& catalog, const Scenario& scenario, const std::vector<std::string>& earlier,
                   const std::string& spec, std::uint64_t memoryCap, const Scratch& after,
                   std::optional<Scratch>& before) {
@@ -173,7 +178,6 @@ void comparedWith(const Catalog& catalog, const Scenario& scenario, const std::v
         }
         before.reset();
     }
-    before.emplace(catalog, scenario, earlier, memoryCap);
 }
 
 } // namespace
@@ -207,34 +211,42 @@ void applySet(const Catalog& catalog, const Scenario& scenario, const std::vecto
               const std::string& spec, std::uint64_t memoryCap, World& live, SceneDef& scene) {
     std::vector<std::string> with = earlier;
     with.push_back(spec);
-    const Scratch after(catalog, scenario, with, memoryCap);
-    std::optional<Scratch> probe;
-    comparedWith(catalog, scenario, earlier, spec, memoryCap, after, probe);
-    const Scratch& before = *probe;
-    patchScene(scene, before.scenario.scene, after.scenario.scene);
-    patchScene(live.resource<SceneDef>(), before.scenario.scene, after.scenario.scene);
-    for (Entity e : live.entities()) {
-        const Name* name = live.tryGet<Name>(e);
-        if (!name) {
-            continue;
-        }
-        const auto b = before.byName.find(name->value), a = after.byName.find(name->value);
-        if (b == before.byName.end() || a == after.byName.end()) {
-            continue;
-        }
-        // the components first (they may look at how the entity's transform changed), then the transform
-        for (const Retune& r : catalog.retunes()) {
-            if (r.has(live, e) && r.has(before.world, b->second)) {
-                r.patch(live, e, before.world, b->second, after.world, a->second);
+    const Scratch plain(catalog, scenario, earlier, memoryCap), after(catalog, scenario, with, memoryCap);
+    // what the set changes against the earlier sets (whatever the key's being there brings: a wave maker
+    // that one of its keys adds), then what the key reaches against the key at another value (whatever it
+    // sets to the file's own value, which the run may have moved from)
+    auto pass = [&](const Scratch& before) {
+        patchScene(scene, before.scenario.scene, after.scenario.scene);
+        patchScene(live.resource<SceneDef>(), before.scenario.scene, after.scenario.scene);
+        for (Entity e : live.entities()) {
+            const Name* name = live.tryGet<Name>(e);
+            if (!name) {
+                continue;
+            }
+            const auto b = before.byName.find(name->value), a = after.byName.find(name->value);
+            if (b == before.byName.end() || a == after.byName.end()) {
+                continue;
+            }
+            // the components first (they may look at how the entity's transform changed), then the transform
+            for (const Retune& r : catalog.retunes()) {
+                if (r.has(live, e) && r.has(before.world, b->second)) {
+                    r.patch(live, e, before.world, b->second, after.world, a->second);
+                }
+            }
+            const Transform* tb = before.world.tryGet<Transform>(b->second);
+            const Transform* ta = after.world.tryGet<Transform>(a->second);
+            if (Transform* t = live.tryGet<Transform>(e); t && tb && ta) {
+                if (tb->position != ta->position) {
+                    t->position = ta->position;
+                }
             }
         }
-        const Transform* tb = before.world.tryGet<Transform>(b->second);
-        const Transform* ta = after.world.tryGet<Transform>(a->second);
-        if (Transform* t = live.tryGet<Transform>(e); t && tb && ta) {
-            if (tb->position != ta->position) {
-                t->position = ta->position;
-            }
-        }
+    };
+    pass(plain);
+    std::optional<Scratch> moved;
+    comparedWith(catalog, scenario, earlier, spec, memoryCap, after, moved);
+    if (moved) {
+        pass(*moved);
     }
 }
 

@@ -31,6 +31,12 @@ void Simulation::applyEvents(const StepContext& ctx) {
 }
 
 std::optional<std::string> Simulation::checkSetEvents(const std::vector<EventDef>& events) const {
+    const auto sets = std::size_t(
+        std::count_if(events.begin(), events.end(), [](const EventDef& ev) { return ev.action == "set"; }));
+    if (sets > Limits::kMaxSetEvents) { // (the scenario's own and those of --input or a replay, together)
+        return std::to_string(sets) + " set events; at most " + std::to_string(Limits::kMaxSetEvents) +
+               " (each loads the scene twice to see what it changes)";
+    }
     std::vector<std::string> earlier;
     for (const EventDef& ev : events) {
         if (ev.action != "set") {

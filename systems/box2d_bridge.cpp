@@ -257,6 +257,14 @@ void addBodiesAndApplyPushes(World& world, Box2DWorld::Impl& impl) {
             b.retuned = false;
         }
         if (!b.dynamic()) {
+            if (b.teleported) {
+                // a static body set elsewhere: whatever rested on it, or sleeps where it now is, wakes
+                body.SetTransform(b2(b.position), float(b.angle));
+                for (b2Body* other = impl.world.GetBodyList(); other; other = other->GetNext()) {
+                    other->SetAwake(true);
+                }
+                b.teleported = false;
+            }
             return;
         }
         if (b.teleported) {

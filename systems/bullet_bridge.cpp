@@ -380,6 +380,21 @@ void addNewBodies(World& world, BulletWorld::Impl& impl) {
     }
 }
 
+/// Wakes the bodies in contact with this one (its material changed: a crate asleep on a floor set to ice
+/// slides).
+void wakeWhatTouches(BulletWorld::Impl& impl, const btCollisionObject& body) {
+    btDispatcher& dispatcher = *impl.world.getDispatcher();
+    for (int i = 0; i < dispatcher.getNumManifolds(); ++i) {
+        const btPersistentManifold& m = *dispatcher.getManifoldByIndexInternal(i);
+        if (m.getBody0() == &body || m.getBody1() == &body) {
+            const btCollisionObject* other = m.getBody0() == &body ? m.getBody1() : m.getBody0();
+            if (!other->isStaticObject()) {
+                const_cast<btCollisionObject*>(other)->activate(true);
+            }
+        }
+    }
+}
+
 void addBodiesAndApplyPushes(World& world, BulletWorld::Impl& impl) {
     addNewBodies(world, impl);
     world.view<RigidBody>().each([&](Entity, RigidBody& b) {
@@ -397,10 +412,19 @@ void addBodiesAndApplyPushes(World& world, BulletWorld::Impl& impl) {
             // (Bullet mixes the materials of every contact point again each step: its contacts take them)
             body.setFriction(btScalar(b.friction));
             body.setRestitution(btScalar(b.restitution));
-            body.activate(true);
+            wakeWhatTouches(impl, body);
             b.retuned = false;
         }
         if (!b.dynamic()) {
+            if (b.teleported) {
+                // a static body set elsewhere: whatever rested on it, or sleeps where it now is, wakes
+                body.setWorldTransform(btTransform(bt(b.orientation), bt(b.position)));
+                impl.world.updateSingleAabb(&body);
+                for (int i = 0; i < impl.world.getNumCollisionObjects(); ++i) {
+                    impl.world.getCollisionObjectArray()[i]->activate(true);
+                }
+                b.teleported = false;
+            }
             return;
         }
         if (b.teleported) {

@@ -460,10 +460,27 @@ RigidBody slabOf(const RigidBody2D& b, double z, double dt) {
         s.height = 2.0 * kSlabHalfDepth;
         s.orientation = {std::sqrt(0.5), 0.0, 0.0, std::sqrt(0.5)};
         break;
-    case Shape2DKind::Polygon:
+    case Shape2DKind::Polygon: {
+        // about its centre of mass, which Box2D's velocities and turns are about: the polygon's centroid,
+        // where its vertices need not be centred (the body's position is the origin they are given from)
+        double area = 0.0, cx = 0.0, cy = 0.0;
+        for (std::size_t i = 0; i < b.vertices.size(); ++i) {
+            const Vec2 &p = b.vertices[i], &q = b.vertices[(i + 1) % b.vertices.size()];
+            const double cr = p[0] * q[1] - q[0] * p[1];
+            area += 0.5 * cr;
+            cx += (p[0] + q[0]) * cr / 6.0;
+            cy += (p[1] + q[1]) * cr / 6.0;
+        }
+        const Vec2 centroid{cx / area, cy / area};
+        std::vector<Vec2> around = b.vertices;
+        for (Vec2& v : around) {
+            v = {v[0] - centroid[0], v[1] - centroid[1]};
+        }
         s.shape = ShapeKind::Convex;
-        s.mesh = prismOf(b.vertices, kSlabHalfDepth);
+        s.mesh = prismOf(around, kSlabHalfDepth);
+        s.position += rotate(s.orientation, {centroid[0], centroid[1], 0.0});
         break;
+    }
     case Shape2DKind::Edge: {
         const Vec3 from = rotate(s.orientation, {b.from[0], b.from[1], 0.0});
         const Vec3 to = rotate(s.orientation, {b.to[0], b.to[1], 0.0});
@@ -519,12 +536,12 @@ public:
             if (s.impulse == Vec3{} && s.angularImpulse == Vec3{}) {
                 continue;
             }
+            // (a slab turns about the body's centre of mass, as Box2D does: only a static edge's is
+            // elsewhere)
             RigidBody2D& b = m_pool2->values()[k - m_first2];
-            // the turn about the body's centre, from the turn about the slab's (an edge's middle)
-            const Vec3 offset = s.position - Vec3{b.position[0], b.position[1], s.position.z};
             b.impulse[0] += s.impulse.x;
             b.impulse[1] += s.impulse.y;
-            b.angularImpulse += s.angularImpulse.z + cross(offset, s.impulse).z;
+            b.angularImpulse += s.angularImpulse.z;
         }
     }
 

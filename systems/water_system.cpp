@@ -415,16 +415,17 @@ double nodeShare(const Water& w, int i, int k) {
 /// Bodies float on the ambient surface (the waves they did not make), so that their own dent never lifts
 /// or sinks them: read from the surface they dent, a body fed back into itself (a sinking crate's trough
 /// sank it further; the displaced water piled around it pushed it out harder than it came in) and grew
-/// without bound. The body is cut into columns on a grid of its own (at least 16 across, two a water
+/// without bound. The body is cut into columns on a grid of its own (at least 24 across, two a water
 /// cell), each with its exact vertical extent (what rights a tilted box: its columns are deeper on its low
 /// side) against the ambient surface read between the nodes, and each column's
 /// submerged part is lifted by the weight of its water at its middle. The lift's response to the body's
-/// own motion is taken implicitly (the heave and tilt stiffness of the waterline, rho g times its area and
-/// its second moment) with the water moving along (added mass, half the submerged volume's water), so a
-/// body a thousand times lighter than water settles in a step instead of flying out: stable at any density
-/// ratio and step. Waves carry a body by the slope of the surface over it (the pressure gradient under a
-/// wave, g times the slope per unit of displaced mass). The water feels the body through its displacement:
-/// the water a body pushes aside leaves the nodes under it and raises the rest of the surface by as much.
+/// own motion is taken implicitly (the heave stiffness of the waterline, rho g times its area, and the tilt
+/// stiffness about each horizontal axis, rho g V GM), so a body a thousand times lighter than water settles
+/// in a step instead of flying out: stable at any density ratio and step. (No added mass: an impulse cannot
+/// tell a free body from a held one, and it weakened a tethered buoy's pull sixfold.) Waves carry a body by
+/// the slope of the surface over it (the pressure gradient under a wave, g times the slope per unit of
+/// displaced mass). The water feels the body through its displacement: the water a body pushes aside leaves
+/// the nodes under it and raises the rest of the surface by as much.
 void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     std::vector<double>& now = w.occupying;
     const bool wasOccupied = w.anyOccupied; // `occupied` holds a share somewhere (else it is all zeros)
@@ -465,12 +466,13 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         Vec3 lo, hi;
         horizontalBox(b, lo, hi);
         const double cell = std::min(w.dx(), w.dz());
-        const int acrossX =
-            std::clamp(int(std::ceil(2.0 * (hi.x - lo.x) / cell)), kColumnsAcross, kMostColumnsAcross);
-        const int acrossZ =
-            std::clamp(int(std::ceil(2.0 * (hi.z - lo.z) / cell)), kColumnsAcross, kMostColumnsAcross);
+        auto columns = [&](double width) { // clamped in double first (a huge body must not overflow an int)
+            return int(std::clamp(std::ceil(2.0 * width / cell), double(kColumnsAcross),
+                                  double(kMostColumnsAcross)));
+        };
+        const int acrossX = columns(hi.x - lo.x), acrossZ = columns(hi.z - lo.z);
         const double stepX = (hi.x - lo.x) / acrossX, stepZ = (hi.z - lo.z) / acrossZ, column = stepX * stepZ;
-        double volume = 0.0, waterline = 0.0, waterlineMoment = 0.0;
+        double volume = 0.0, waterline = 0.0, waterlineMomentX = 0.0, waterlineMomentZ = 0.0;
         Vec3 centre, slope;
         for (int v = 0; v < acrossZ; ++v) {
             const double z = lo.z + (v + 0.5) * stepZ;
@@ -504,7 +506,8 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                 if (top > surface) { // the column crosses the surface: part of the waterline
                     const double rx = x - b.position.x, rz = z - b.position.z;
                     waterline += column;
-                    waterlineMoment += column * (rx * rx + rz * rz);
+                    waterlineMomentX += column * rx * rx;
+                    waterlineMomentZ += column * rz * rz;
                 }
                 // the water it displaces leaves the four nodes round it, as heights over their cells
                 const double height = displaced / area;
@@ -519,34 +522,40 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
             return;
         }
         centre = centre * (1.0 / volume);
-        const double m = b.mass, added = 0.5 * w.density * volume;
+        const double m = b.mass;
         const Vec3 lift = gravity * (-w.density * volume); // the weight of the water displaced
-        // heave, implicit in the waterline's stiffness k = rho g A, with the added mass: the velocity change
-        // of (m + added) dv = dt (m g + lift - k dt (v + dv)), less the gravity the rigid system adds itself
+        // heave, implicit in the waterline's stiffness k = rho g A: the lift where the step will leave the
+        // body, lift - k dt v', with v' the velocity it ends with, m (v' - v) = dt (m g + lift - k dt v'),
+        // taken as an impulse less the gravity the rigid system adds itself. Stable at any density and step;
+        // fully under water (no waterline) it is the lift itself, so a body tied down pulls with all of it.
         const double k = w.density * g * waterline;
-        const double dv =
-            (dt * (m * gravity.y + lift.y) - k * dt * dt * b.linearVelocity.y) / (m + added + k * dt * dt);
-        Vec3 impulse{0.0, m * dv - m * gravity.y * dt, 0.0};
-        // the pressure gradient under the waves: -rho g (slope) per unit of submerged volume, sharing the
-        // added mass; and lift along gravity's horizontal part, if it has one
-        const Vec3 push = slope * (-w.density * g) + Vec3{lift.x, 0.0, lift.z};
-        impulse += push * (dt * m / (m + added));
+        const double after = (m * b.linearVelocity.y + dt * (m * gravity.y + lift.y)) / (m + k * dt * dt);
+        Vec3 impulse{0.0, dt * lift.y - k * dt * dt * after, 0.0};
+        // the pressure gradient under the waves: -rho g (slope) per unit of submerged volume; and lift along
+        // gravity's horizontal part, if it has one
+        impulse += (slope * (-w.density * g) + Vec3{lift.x, 0.0, lift.z}) * dt;
         // drag as the exact decay of the step (stable at any strength), in proportion to how much of the body
         // is in the water
         const double share = std::min(1.0, volume / bodyVolume(b));
         const double decay = 1.0 - std::exp(-w.bodyDrag * share * dt);
         b.impulse += impulse - b.linearVelocity * (decay * m);
         // the righting torque of the columns' lift about the centre of mass (none on a ball: its water
-        // pushes through its centre), implicit in the waterline's tilt stiffness rho g sum(a r^2), against
-        // the smallest moment of inertia the body could have (so it never overshoots)
+        // pushes through its centre), implicit in the tilt stiffness about each horizontal axis, rho g V GM
+        // = rho g (the waterline's second moment about the axis + V (centre of buoyancy - centre of mass)
+        // height), none where that is negative (an unstable float turns over freely) or zero (a log about
+        // its axis); against the smallest moment of inertia the body could have (so it never overshoots)
         const double smallest = smallestHalfExtent(b);
         const double inertia = 0.4 * m * smallest * smallest;
         if (b.shape != ShapeKind::Sphere) {
             const Vec3 torque = cross(centre - b.position, lift);
-            const double kt = w.density * g * waterlineMoment;
-            const Vec3 tilting{b.angularVelocity.x, 0.0, b.angularVelocity.z};
-            b.angularImpulse +=
-                (torque * dt - tilting * (kt * dt * dt)) * (inertia / (inertia + kt * dt * dt));
+            const double rise = volume * (centre.y - b.position.y);
+            const double kx = std::max(0.0, w.density * g * (waterlineMomentZ + rise)); // turning about x
+            const double kz = std::max(0.0, w.density * g * (waterlineMomentX + rise)); // about z
+            auto turn = [&](double tau, double omega, double stiff) {
+                return (tau * dt - omega * stiff * dt * dt) * (inertia / (inertia + stiff * dt * dt));
+            };
+            b.angularImpulse += Vec3{turn(torque.x, b.angularVelocity.x, kx), torque.y * dt,
+                                     turn(torque.z, b.angularVelocity.z, kz)};
         }
         b.angularImpulse -= b.angularVelocity * (decay * inertia);
     };

@@ -10,11 +10,11 @@
 // maker (one edge driven up and down). Rigid bodies, both ways: a body floats on the ambient surface (the
 // waves no body made, a second height field), cut into vertical columns with its shape's exact extent, each
 // lifted by the weight of the water it displaces (buoyancy and the righting torque), the response to its
-// own motion implicit with added mass (stable at any density ratio); the surface's slope carries it; the
-// water it pushes aside leaves the nodes under it and raises the rest (the volume kept), making its waves.
-// 2D bodies float as the slabs they are drawn as (systems/collision_system.h slabOf).
-// System: reads Transform; writes Water and the impulses on RigidBody and RigidBody2D. Phase: fixed, after
-// the rigid bridges.
+// own motion implicit in the waterline's stiffness (stable at any density ratio); the surface's slope carries
+// it; the water it pushes aside leaves the nodes under it and raises the rest (the volume kept), making its
+// waves. 2D bodies float as the slabs they are drawn as (systems/collision_system.h slabOf). System: reads
+// Transform; writes Water and the impulses on RigidBody and RigidBody2D. Phase: fixed, after the rigid
+// bridges.
 
 #include "components/water.h"
 #include "engine/catalog.h"

@@ -242,7 +242,8 @@ TEST(SetEvent, FrictionSetToZeroReachesContactsAlreadyMadeInBothEngines) {
     // a sideways pull of 2 m/s^2 held by friction; at frame 5 the friction of the (static) grounds goes to
     // 0, so the mix with the bodies' (the geometric mean) is 0, and from then on each body slides as a
     // frictionless one would: x = a t^2 / 2 (a static ground's material was never given to its engine, and
-    // Box2D's contacts made before the set kept their old friction: nothing slid)
+    // Box2D's contacts made before the set kept their old friction: nothing slid); both bodies are asleep
+    // by then (a second at rest), and the set wakes them
     auto sim = makeSimulation(R"(
 [scene]
 name = "slip"
@@ -262,7 +263,6 @@ position = [0.0, 0.5, 0.0]
 shape = "box"
 half_extents = [0.5, 0.5, 0.5]
 mass = 10.0
-sleep = false
 [[entity]]
 name = "ground2d"
 [entity.rigid_body_2d]
@@ -277,19 +277,18 @@ position = [3.0, 0.5, 5.0]
 shape = "box"
 half_extents = [0.5, 0.5]
 mass = 10.0
-sleep = false
 [[event]]
-frame = 5
+frame = 60
 action = "set"
 key = "floor.rigid_body.friction"
 value = 0.0
 [[event]]
-frame = 5
+frame = 60
 action = "set"
 key = "ground2d.rigid_body_2d.friction"
 value = 0.0
 )");
-    run(*sim, 5);
+    run(*sim, 60);
     const double crate0 = component<RigidBody>(*sim, "crate").position.x;
     const double box0 = component<RigidBody2D>(*sim, "box2d").position[0];
     EXPECT_LT(std::abs(crate0), 1e-3) << "held by friction before the set";
@@ -318,6 +317,86 @@ value = 6
     for (std::size_t k = 0; k < after.links.size(); ++k) {
         EXPECT_EQ(after.links[k].rest, before.links[k].rest) << "link " << k;
     }
+}
+
+TEST(SetEvent, AStaticBodySetElsewhereTakesItsEngineAndWakesWhatRestedOnIt) {
+    // a 3D floor and a 2D ground moved 5 m down at 1 s, when the crates on them have gone to sleep: both
+    // crates fall (the bridges skipped static bodies, and the crates rested on floors no longer drawn)
+    auto sim = makeSimulation(R"(
+[scene]
+name = "drop"
+[[entity]]
+name = "floor"
+[entity.transform]
+position = [0, -0.5, 0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [5, 0.5, 5]
+[[entity]]
+name = "crate"
+[entity.transform]
+position = [0, 0.5, 0]
+[entity.rigid_body]
+shape = "box"
+mass = 1.0
+[[entity]]
+name = "ground2d"
+[entity.transform]
+position = [0, 0, 5]
+[entity.rigid_body_2d]
+shape = "box"
+half_extents = [5, 0.25]
+[[entity]]
+name = "box2d"
+[entity.transform]
+position = [0, 0.75, 5]
+[entity.rigid_body_2d]
+shape = "box"
+mass = 1.0
+[[event]]
+frame = 60
+action = "set"
+key = "floor.transform.position"
+value = [0, -5.5, 0]
+[[event]]
+frame = 60
+action = "set"
+key = "ground2d.transform.position"
+value = [0, -5, 5]
+)");
+    run(*sim, 60);
+    EXPECT_TRUE(component<RigidBody>(*sim, "crate").sleeping) << "asleep before the set";
+    run(*sim, 30);
+    EXPECT_LT(component<RigidBody>(*sim, "crate").position.y, -0.5) << "falling";
+    EXPECT_LT(component<RigidBody2D>(*sim, "box2d").position[1], -0.5) << "falling";
+}
+
+TEST(SetEvent, AKeyThatBringsItsTableAlongTakesTheTableToo) {
+    // water without a wave maker, given one by setting one of its keys: the maker's other keys come with
+    // their defaults and it makes waves (compared only with the key at another value, the table's coming
+    // was the same on both sides and the maker never started)
+    auto sim = makeSimulation(R"(
+[scene]
+name = "maker"
+dt = 0.01
+[[entity]]
+name = "pond"
+[entity.water]
+cells = [41, 11]
+size = [8.0, 2.0]
+[[event]]
+frame = 5
+action = "set"
+key = "pond.water.wave_maker.amplitude"
+value = 0.05
+)");
+    run(*sim, 5);
+    EXPECT_EQ(component<Water>(*sim, "pond").maker.edge, -1);
+    run(*sim, 100);
+    const Water& w = component<Water>(*sim, "pond");
+    EXPECT_EQ(w.maker.edge, 0) << "the default edge, -x";
+    EXPECT_EQ(w.maker.amplitude, 0.05);
+    EXPECT_GT(std::abs(w.h[std::size_t(w.nz / 2) * w.nx + 5]), 1e-3) << "waves near the maker";
 }
 
 TEST(SetEvent, ARunWithSetEventsReplaysBitForBit) {

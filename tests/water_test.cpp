@@ -211,7 +211,9 @@ TEST(Water, AHalfDenseBoxRidesAWaveTrainUpAndDown) {
     std::printf("wave %.4f m peak to peak, the box %.4f m\n", waveHi - waveLo, hi - lo);
     EXPECT_NEAR(hi - lo, waveHi - waveLo, 0.25 * (waveHi - waveLo)) << "rides the wave it floats on";
     const RigidBody& b = test::component<RigidBody>(*sim, "float");
-    EXPECT_LT(std::abs(b.position.x), 1.0) << "carried back and forth, not away";
+    // carried back and forth by the slope, and drifting with the train (no orbital velocity of the water
+    // to drag against: about 0.1 m/s)
+    EXPECT_LT(std::abs(b.position.x), 2.0) << "carried back and forth, not away";
 }
 
 TEST(Water, ABoxReleasedTiltedThirtyDegreesRightsItself) {
@@ -226,14 +228,16 @@ TEST(Water, ABoxReleasedTiltedThirtyDegreesRightsItself) {
         "0.96592582628906831]\nsleep = false\nmass = " +
             std::to_string(mass) + "\n"));
     ASSERT_NEAR(tiltDegrees(test::component<RigidBody>(*sim, "raft")), 30.0, 1e-9);
+    // (it rolls about its upright pose, period about 0.9 s, the roll dying away by the water's drag: 10
+    // degrees at most after 2.5 s, 3.4 after 5, 0.6 after 10)
     double most = 0.0;
-    for (int f = 0; f < 600; ++f) {
+    for (int f = 0; f < 900; ++f) {
         sim->runFrame();
-        if (f >= 300) {
+        if (f >= 600) {
             most = std::max(most, tiltDegrees(test::component<RigidBody>(*sim, "raft")));
         }
     }
-    EXPECT_LT(most, 2.0) << "upright within 2 degrees from 5 s to 10 s";
+    EXPECT_LT(most, 1.0) << "upright within a degree from 10 s to 15 s";
 }
 
 TEST(Water, TheWatersVolumeIsKeptWhileBodiesSinkFloatAndRock) {
@@ -357,6 +361,60 @@ TEST(Water, WhereABodySitsOnTheGridChangesNeitherItsDraftNorItsTilt) {
     EXPECT_LT(tiltDegrees(drum), 1.0);
     EXPECT_NEAR(test::component<RigidBody>(*sim, "chip").position.y, 0.05 - 0.5 * 0.1, 0.005);
     EXPECT_NEAR(test::component<RigidBody>(*sim, "bead").position.y, 0.0, 0.003) << "half under";
+}
+
+TEST(Water, ABodyTiedUnderWaterPullsItsTetherWithAllItsLift) {
+    // a 0.2 m cube of 100 kg/m^3 held 1 m under by a spring (200 N/m) to the floor: at rest the spring
+    // holds the lift less the weight, (1000 - 100) 0.008 g = 70.6 N, a stretch of 0.353 m (the water's
+    // answer to the body's own motion must not weaken a force the body does not move under: with half the
+    // displaced water as added mass it held 11.8 N)
+    auto sim = test::makeSimulation(
+        pool(1.0 / 60.0, "cells = [41, 41]\nsize = [4.0, 4.0]\ndepth = 2.0\ndamping = 0.5\ndrag = 2.0\n",
+             box("buoy", 0.1, 100.0, "[0.0, -1.0, 0.0]") +
+                 "[[joint]]\ntype = \"spring\"\na = \"buoy\"\npivot_b = [0.0, -1.5, 0.0]\nstiffness = 200.0\n"
+                 "damping = 20.0\nrest = 0.5\n"));
+    for (int f = 0; f < 600; ++f) {
+        sim->runFrame();
+    }
+    const double stretch = test::component<RigidBody>(*sim, "buoy").position.y - (-1.5) - 0.5;
+    EXPECT_NEAR(stretch, 900.0 * 0.008 * 9.81 / 200.0, 0.01);
+}
+
+TEST(Water, ALongPlankRollsUprightLikeACubeOfItsSection) {
+    // a 2 x 0.2 x 0.2 m plank and a 0.2 m cube of 150 kg/m^3, both released at 17 degrees of roll about
+    // x: their sections are alike, so they right alike (the plank's roll once met the stiffness of its
+    // length as well as its breadth, and crept back: 8.7 degrees after 5 s)
+    const std::string tilt = "orientation = [0.14780941112961063, 0, 0, 0.98901586336191682]\n";
+    auto sim = test::makeSimulation(
+        pool(1.0 / 60.0, "cells = [81, 81]\nsize = [8.0, 8.0]\ndepth = 1.0\ndamping = 0.5\ndrag = 2.0\n",
+             box("cube", 0.1, 150.0, "[-2.0, 0.0, 2.0]", tilt) +
+                 "[[entity]]\nname = \"plank\"\n[entity.transform]\nposition = [1.0, 0.0, -1.0]\n"
+                 "[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [1.0, 0.1, 0.1]\nsleep = false\n" +
+                 tilt + "mass = " + std::to_string(150.0 * 2.0 * 0.2 * 0.2) + "\n"));
+    for (int f = 0; f < 300; ++f) {
+        sim->runFrame();
+    }
+    EXPECT_LT(tiltDegrees(test::component<RigidBody>(*sim, "cube")), 2.0);
+    EXPECT_LT(tiltDegrees(test::component<RigidBody>(*sim, "plank")), 2.0);
+}
+
+TEST(Water, A2DPolygonGivenAwayFromItsOriginFloatsAsTheSameSquare) {
+    // the 0.6 m square log of density 0.15 as a polygon whose vertices start at its origin, not its centre:
+    // it floats level at the same draft as when they are centred (turned about the origin instead of its
+    // centre of mass, it rolled to 45 degrees)
+    const double mass = 150.0 * 0.6 * 0.6 * 2.0 * kSlabHalfDepth;
+    auto sim = test::makeSimulation(pool(
+        1.0 / 60.0, "cells = [81, 81]\nsize = [8.0, 4.0]\nwave_speed = 1.5\ndamping = 0.5\ndrag = 2.0\n",
+        "[[entity]]\nname = \"log\"\n[entity.transform]\nposition = [1.7, 0.0, 0.0]\n[entity.rigid_body_2d]\n"
+        "shape = \"polygon\"\nvertices = [[0.0, 0.0], [0.6, 0.0], [0.6, 0.6], [0.0, 0.6]]\nsleep = false\n"
+        "mass = " +
+            std::to_string(mass) + "\n"));
+    for (int f = 0; f < 600; ++f) {
+        sim->runFrame();
+    }
+    const RigidBody2D& log = test::component<RigidBody2D>(*sim, "log");
+    EXPECT_LT(std::abs(log.angle), 0.02);
+    EXPECT_NEAR(-log.position[1], 0.15 * 0.6, 0.05 * 0.15 * 0.6) << "its bottom (the origin) at the draft";
 }
 
 } // namespace
