@@ -299,9 +299,15 @@ value = 0.0
 }
 
 TEST(SetEvent, ASetOfAShapeKeyToItsOwnValueChangesNothing) {
-    // rows = 6 for a 6-row cloth is allowed (nothing changes); compared with a load at rows = 7, every mass
-    // would differ and the 7-row cloth's pins and masses would be written into the 6-row one
+    // rows = 6 for a 6-row cloth is allowed (nothing changes), and whatever the run changed stays: the mass
+    // it unpinned stays free (compared with a load at rows = 7, the other layout's values would be read into
+    // this one; copying the file's pins over would pin it back)
     auto sim = makeSimulation(std::string(kCurtain) + R"(
+[[event]]
+frame = 1
+entity = "sheet"
+action = "unpin"
+value = [2]
 [[event]]
 frame = 2
 action = "set"
@@ -309,6 +315,7 @@ key = "sheet.cloth.rows"
 value = 6
 )");
     run(*sim, 2);
+    ASSERT_FALSE(component<SpringNetwork>(*sim, "sheet").pinned[2]) << "unpinned by the run";
     const SpringNetwork before = component<SpringNetwork>(*sim, "sheet");
     run(*sim, 1);
     const SpringNetwork& after = component<SpringNetwork>(*sim, "sheet");
