@@ -6,6 +6,8 @@
 #include "engine/math.h"
 
 #include <array>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -51,6 +53,42 @@ struct RigidBody2D {
     bool retuned = false; ///< mass, material or sleep set from outside: the bridge gives them to Box2D
 
     bool dynamic() const { return mass > 0.0; }
+
+    /// The centre of mass in the body's frame, which Box2D's velocities, impulses and turns are about: a
+    /// polygon's centroid (its vertices are given about the body's position and need not be centred);
+    /// every other shape is centred on the position.
+    Vec2 localCentre() const {
+        if (shape != Shape2DKind::Polygon) {
+            return {0.0, 0.0};
+        }
+        double area = 0.0, cx = 0.0, cy = 0.0;
+        for (std::size_t i = 0; i < vertices.size(); ++i) {
+            const Vec2 &p = vertices[i], &q = vertices[(i + 1) % vertices.size()];
+            const double cr = p[0] * q[1] - q[0] * p[1];
+            area += 0.5 * cr;
+            cx += (p[0] + q[0]) * cr / 6.0;
+            cy += (p[1] + q[1]) * cr / 6.0;
+        }
+        return {cx / area, cy / area};
+    }
+
+    /// A point of the body's frame in the world's plane, and back.
+    Vec2 toWorld(Vec2 local) const {
+        const double c = std::cos(angle), s = std::sin(angle);
+        return {position[0] + c * local[0] - s * local[1], position[1] + s * local[0] + c * local[1]};
+    }
+    Vec2 toLocal(Vec2 world) const {
+        const double c = std::cos(angle), s = std::sin(angle);
+        const double dx = world[0] - position[0], dy = world[1] - position[1];
+        return {c * dx + s * dy, -s * dx + c * dy};
+    }
+
+    /// The velocity of the body's material at a point of the plane: v + omega x (p - centre of mass).
+    Vec2 velocityAt(Vec2 world) const {
+        const Vec2 c = toWorld(localCentre());
+        return {velocity[0] - angularVelocity * (world[1] - c[1]),
+                velocity[1] + angularVelocity * (world[0] - c[0])};
+    }
 };
 
 } // namespace tumble

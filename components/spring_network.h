@@ -43,8 +43,8 @@ struct SpringLink {
 /// feels what the springs and gravity pull on the mass with.
 struct SpringAnchor {
     std::uint32_t mass = 0; ///< the held mass (pinned while held)
-    Entity body;            ///< a rigid_body (3D)
-    Vec3 local;             ///< the point that holds it, in the body's frame
+    Entity body;            ///< a rigid_body (3D) or a rigid_body_2d
+    Vec3 local;             ///< the point that holds it, in the body's frame (2D: x, y; z off its plane)
 };
 
 /// The state and model of a spring network; every per-mass array has one entry per mass.

@@ -463,15 +463,7 @@ RigidBody slabOf(const RigidBody2D& b, double z, double dt) {
     case Shape2DKind::Polygon: {
         // about its centre of mass, which Box2D's velocities and turns are about: the polygon's centroid,
         // where its vertices need not be centred (the body's position is the origin they are given from)
-        double area = 0.0, cx = 0.0, cy = 0.0;
-        for (std::size_t i = 0; i < b.vertices.size(); ++i) {
-            const Vec2 &p = b.vertices[i], &q = b.vertices[(i + 1) % b.vertices.size()];
-            const double cr = p[0] * q[1] - q[0] * p[1];
-            area += 0.5 * cr;
-            cx += (p[0] + q[0]) * cr / 6.0;
-            cy += (p[1] + q[1]) * cr / 6.0;
-        }
-        const Vec2 centroid{cx / area, cy / area};
+        const Vec2 centroid = b.localCentre();
         std::vector<Vec2> around = b.vertices;
         for (Vec2& v : around) {
             v = {v[0] - centroid[0], v[1] - centroid[1]};

@@ -241,9 +241,9 @@ void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef
 
 // ---- joints
 
-/// type = "anchor": a spring network's mass held by a 3D rigid body (a = the network, mass = its index, or a
-/// list of indices each held where it is; b = the body, pivot = the holding point of a single mass, by
-/// default where the mass is).
+/// type = "anchor": a spring network's mass held by a rigid body, 3D or 2D (a = the network, mass = its
+/// index, or a list of indices each held where it is; b = the body, pivot = the holding point of a single
+/// mass, by default where the mass is).
 void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
     const Entity netEntity = lookup(r, "a", true);
     SpringNetwork* net = world.tryGet<SpringNetwork>(netEntity);
@@ -276,9 +276,12 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
     }
     const Entity bodyEntity = lookup(r, "b", true);
     const RigidBody* body = world.tryGet<RigidBody>(bodyEntity);
-    if (!body) {
-        r.fail("b", "an anchor's 'b' must name a rigid_body (3D) that holds the mass");
+    const RigidBody2D* body2 = world.tryGet<RigidBody2D>(bodyEntity);
+    if (!body && !body2) {
+        r.fail("b", "an anchor's 'b' must name a rigid_body or a rigid_body_2d that holds the mass");
     }
+    // a 2D body holds a mass at its point of the plane and the mass's height off the plane (its z)
+    const double plane = body2 ? world.get<Transform>(bodyEntity).position.z : 0.0;
     for (std::uint32_t mass : masses) {
         if (net->pinned[mass]) {
             r.fail("mass", "mass " + std::to_string(mass) + " is already pinned" +
@@ -290,7 +293,12 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
         const Vec3 at = net->x[mass];
         const Vec3 pivot =
             masses.size() == 1 ? vec(r.vector<3>("pivot", {at.x, at.y, at.z}, -kHuge, kHuge)) : at;
-        net->anchors.push_back({mass, bodyEntity, body->toLocal(pivot)});
+        if (body) {
+            net->anchors.push_back({mass, bodyEntity, body->toLocal(pivot)});
+        } else {
+            const Vec2 local = body2->toLocal({pivot.x, pivot.y});
+            net->anchors.push_back({mass, bodyEntity, {local[0], local[1], pivot.z - plane}});
+        }
         net->pinned[mass] = 1;
     }
 }

@@ -1,6 +1,7 @@
 #include "systems/spring_system.h"
 
 #include "components/rigid_body.h"
+#include "components/rigid_body_2d.h"
 #include "engine/name.h"
 #include "engine/parallel.h"
 #include "engine/random.h"
@@ -15,6 +16,7 @@
 #include <cmath>
 #include <exception>
 #include <functional>
+#include <optional>
 #include <string>
 
 namespace tumble {
@@ -413,19 +415,61 @@ bool blewUp(const SpringNetwork& net) {
 
 } // namespace
 
+namespace {
+
+/// The point that holds an anchored mass, and its velocity, on a 3D or a 2D body; nothing if the body is
+/// gone. A 2D body holds the mass at its point of the plane, `local.z` off the plane (its entity's z).
+struct Holder {
+    Vec3 at;
+    Vec3 velocity;
+};
+std::optional<Holder> holderOf(World& world, const SpringAnchor& a) {
+    if (!world.alive(a.body)) {
+        return std::nullopt;
+    }
+    if (const RigidBody* body = world.tryGet<RigidBody>(a.body)) {
+        const Vec3 at = body->toWorld(a.local);
+        return Holder{at, body->velocityAt(at)};
+    }
+    if (const RigidBody2D* body = world.tryGet<RigidBody2D>(a.body)) {
+        const Transform* t = world.tryGet<Transform>(a.body);
+        const Vec2 at = body->toWorld({a.local.x, a.local.y});
+        const Vec2 v = body->velocityAt(at);
+        return Holder{{at[0], at[1], (t ? t->position.z : 0.0) + a.local.z}, {v[0], v[1], 0.0}};
+    }
+    return std::nullopt;
+}
+
+/// Hands a force on the held point over to its body as an impulse over the step: a 2D body takes the part
+/// in its plane, and the turn about z of it about its centre of mass (the rest its plane holds).
+void push(World& world, const SpringAnchor& a, Vec3 at, Vec3 f, double dt) {
+    if (RigidBody* body = world.tryGet<RigidBody>(a.body)) {
+        if (body->dynamic()) {
+            body->impulse += f * dt;
+            body->angularImpulse += cross(at - body->position, f * dt);
+        }
+    } else if (RigidBody2D* body2 = world.tryGet<RigidBody2D>(a.body); body2 && body2->dynamic()) {
+        const Vec2 c = body2->toWorld(body2->localCentre());
+        body2->impulse[0] += f.x * dt;
+        body2->impulse[1] += f.y * dt;
+        body2->angularImpulse += ((at.x - c[0]) * f.y - (at.y - c[1]) * f.x) * dt;
+    }
+}
+
+} // namespace
+
 /// Anchored masses take the position and velocity of the body's point that holds them (pinned, a mass
 /// moves by its velocity through the step, so it keeps up with the body); a body that is gone lets go.
 void followAnchors(World& world, SpringNetwork& net) {
     for (std::size_t k = 0; k < net.anchors.size();) {
-        const SpringAnchor& a = net.anchors[k];
-        const RigidBody* body = world.alive(a.body) ? world.tryGet<RigidBody>(a.body) : nullptr;
-        if (!body) {
-            net.pinned[a.mass] = 0;
+        const std::optional<Holder> h = holderOf(world, net.anchors[k]);
+        if (!h) {
+            net.pinned[net.anchors[k].mass] = 0;
             net.anchors.erase(net.anchors.begin() + std::ptrdiff_t(k));
             continue;
         }
-        net.x[a.mass] = body->toWorld(a.local);
-        net.v[a.mass] = body->velocityAt(net.x[a.mass]);
+        net.x[net.anchors[k].mass] = h->at;
+        net.v[net.anchors[k].mass] = h->velocity;
         ++k;
     }
 }
@@ -434,14 +478,13 @@ void followAnchors(World& world, SpringNetwork& net) {
 /// step (the mass's own inertia is left out: it moves with the body).
 void pullAnchors(World& world, SpringNetwork& net, const Environment& env, double dt) {
     for (const SpringAnchor& a : net.anchors) {
-        RigidBody& body = world.get<RigidBody>(a.body);
         // the integrators leave a pinned mass where it was, at rest; a held one moves with its body, as the
         // implicit solve assumed it would (its right-hand side carries the pinned mass's velocity): leaving
         // it behind put its neighbours a step ahead of it, a force along the body's motion that pumped energy
         // into a crate on a rope until it flew apart
-        const Vec3 start = body.toWorld(a.local);
-        net.v[a.mass] = body.velocityAt(start);
-        net.x[a.mass] = start + net.v[a.mass] * dt;
+        const Holder h = *holderOf(world, a); // followAnchors let go of every anchor whose body is gone
+        net.v[a.mass] = h.velocity;
+        net.x[a.mass] = h.at + h.velocity * dt;
         Vec3 f = env.gravity * (1.0 / net.invMass[a.mass]);
         for (const SpringLink& s : net.links) {
             if (s.a != a.mass && s.b != a.mass) {
@@ -456,10 +499,7 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
             const Vec3 onA = u * (s.k * (len - s.rest) + s.kd * dot(net.v[s.b] - net.v[s.a], u));
             f += s.a == a.mass ? onA : -onA;
         }
-        if (body.dynamic()) {
-            body.impulse += f * dt;
-            body.angularImpulse += cross(net.x[a.mass] - body.position, f * dt);
-        }
+        push(world, a, net.x[a.mass], f, dt);
     }
 }
 

@@ -27,7 +27,7 @@ constexpr int kStressFrames = 4; ///< for the stress scenes (one frame of stress
 const std::map<std::string, std::uint64_t>& pinned() {
     static const std::map<std::string, std::uint64_t> table = {
         {"avalanche", 0x6d69c19afa328e10ull},     {"bridge", 0x3408f5c575e2bedeull},
-        {"contraption2d", 0x7dd423daf790c5e6ull}, {"crane", 0xe25a2e3030783a21ull},
+        {"contraption2d", 0xe268c9457d148416ull}, {"crane", 0xe25a2e3030783a21ull},
         {"curtain", 0x867ac71c16d4953bull},       {"drape", 0x74412b0c8b3c1103ull},
         {"drape_sphere", 0xac014db4a1b3baf6ull},  {"fireworks", 0x3bdcd0d4e9e2040dull},
         {"flag", 0x6520a37fdfd7c441ull},          {"fountain", 0x96c4ec7da42939c6ull},

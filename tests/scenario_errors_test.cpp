@@ -298,6 +298,11 @@ std::vector<BadCase> cases() {
          {},
          17,
          "no 'pivot'"},
+        {"anchor_held_by_a_network",
+         kScene + kBob + kCrate + "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = 1\nb = \"bob\"\n",
+         {},
+         17,
+         "'b' must name a rigid_body or a rigid_body_2d"},
         {"unpin_an_anchored_mass",
          kScene + kBob + kCrate +
              "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = 1\nb = \"crate\"\n"
