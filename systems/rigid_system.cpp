@@ -241,10 +241,51 @@ void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef
 
 // ---- joints
 
+/// A body holding masses takes their springs' pull explicitly, once a step: stable while the step is short
+/// beside the period of the body on those springs, omega dt < 2 with omega = sqrt(k / m), k the springs
+/// from the masses it holds to the masses it does not, in every network, damping likewise kd dt / m < 2
+/// (the springs' other ends taken as fixed: the stiffest they can be). Refuses, with a factor of 2 to
+/// spare as for a spring joint, what would blow up. Checked at each anchor with all those before it, so
+/// the last of many anchors on one body sees them all.
+void refuseStiffAnchors(TableReader& r, World& world, Entity body, double mass, double dt) {
+    if (mass <= 0.0) {
+        return; // static: nothing moves it
+    }
+    double k = 0.0, kd = 0.0;
+    world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+        std::vector<char> held(net.x.size(), 0);
+        bool any = false;
+        for (const SpringAnchor& a : net.anchors) {
+            if (a.body == body) {
+                held[a.mass] = 1;
+                any = true;
+            }
+        }
+        for (std::size_t i = 0; any && i < net.links.size(); ++i) {
+            const SpringLink& l = net.links[i];
+            if (held[l.a] != held[l.b]) {
+                k += l.k;
+                kd += l.kd;
+            }
+        }
+    });
+    const double omegaDt = std::sqrt(k / mass) * dt;
+    if (omegaDt > 1.0 || kd * dt / mass > 1.0) {
+        char text[400];
+        std::snprintf(text, sizeof text,
+                      "the springs at the masses this body holds (%g N/m, %g N s/m in all) are too stiff (or "
+                      "too damped) for its %g kg at dt = %g s: it takes their pull explicitly, stable while "
+                      "sqrt(k/m) dt < 1 here (it is %.3g); make the body heavier, the springs softer, or the "
+                      "step shorter",
+                      k, kd, mass, dt, omegaDt);
+        r.fail("b", text);
+    }
+}
+
 /// type = "anchor": a spring network's mass held by a rigid body, 3D or 2D (a = the network, mass = its
 /// index, or a list of indices each held where it is; b = the body, pivot = the holding point of a single
 /// mass, by default where the mass is).
-void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
+void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup, double dt) {
     const Entity netEntity = lookup(r, "a", true);
     SpringNetwork* net = world.tryGet<SpringNetwork>(netEntity);
     if (!net) {
@@ -301,6 +342,7 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup) {
         }
         net->pinned[mass] = 1;
     }
+    refuseStiffAnchors(r, world, bodyEntity, body ? (body->dynamic() ? body->mass : 0.0) : body2->mass, dt);
 }
 
 void loadJoint(TableReader& r, World& world, const SceneDef& scene, const EntityLookup& lookup) {
@@ -308,7 +350,7 @@ void loadJoint(TableReader& r, World& world, const SceneDef& scene, const Entity
     const std::string type =
         r.choice("type", "point", {"hinge", "point", "fixed", "slider", "spring", "anchor"});
     if (type == "anchor") {
-        loadAnchor(r, world, lookup);
+        loadAnchor(r, world, lookup, scene.dt);
         return;
     }
     j.kind = type == "hinge"    ? JointKind::Hinge

@@ -499,7 +499,7 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
             const Vec3 onA = u * (s.k * (len - s.rest) + s.kd * dot(net.v[s.b] - net.v[s.a], u));
             f += s.a == a.mass ? onA : -onA;
         }
-        push(world, a, net.x[a.mass], f, dt);
+        push(world, a, h.at, f, dt); // the lever from where the body is now, to the point where it is now
     }
 }
 

@@ -303,6 +303,14 @@ std::vector<BadCase> cases() {
          {},
          17,
          "'b' must name a rigid_body or a rigid_body_2d"},
+        {"anchor_too_stiff_for_its_body",
+         kScene + "[[entity]]\nname = \"bob\"\n[entity.springs]\nstiffness = 1e5\n" +
+             "masses = [ { x = [0, 0, 0], pinned = true }, { x = [1, 0, 0] } ]\nlinks = [ { a = 0, b = 1 } "
+             "]\n" +
+             kCrate + "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = 1\nb = \"crate\"\n",
+         {},
+         18,
+         "too stiff (or too damped) for its 1 kg at dt = 0.0166667 s"},
         {"unpin_an_anchored_mass",
          kScene + kBob + kCrate +
              "[[joint]]\ntype = \"anchor\"\na = \"bob\"\nmass = 1\nb = \"crate\"\n"
