@@ -413,10 +413,6 @@ bool blewUp(const SpringNetwork& net) {
     return false;
 }
 
-} // namespace
-
-namespace {
-
 /// The point that holds an anchored mass, and its velocity, on a 3D or a 2D body; nothing if the body is
 /// gone. A 2D body holds the mass at its point of the plane, `local.z` off the plane (its entity's z).
 struct Holder {
