@@ -54,6 +54,33 @@ std::string readFile(const std::string& path) {
     return ss.str();
 }
 
+std::string slideAcrossAPull(const std::string& bodyTables) {
+    return R"(
+[scene]
+name = "slide"
+dt = 0.001666666667
+gravity = [0, 0, 0]
+[[entity]]
+name = "spring"
+[entity.springs]
+integrator = "symplectic_euler"
+stiffness = 200.0
+masses = [ { x = [0, 3, 0], m = 0.001, pinned = true }, { x = [0, 1, 0], m = 0.001 } ]
+links = [ { a = 0, b = 1, rest = 1.0 } ]
+[[entity]]
+name = "box"
+[entity.transform]
+position = [0, 1, 0]
+)" + bodyTables +
+           R"(
+[[joint]]
+type = "anchor"
+a = "spring"
+mass = 1
+b = "box"
+)";
+}
+
 ProcessResult runTumble(const std::vector<std::string>& args, const std::vector<std::string>& environment) {
     const std::string errPath = tempPath("stderr.txt");
     std::string cmd;

@@ -33,6 +33,11 @@ std::string writeTemp(const std::string& name, const std::string& text);
 /// Reads a whole file.
 std::string readFile(const std::string& path);
 
+/// No gravity; an entity "box" (`bodyTables`: its transform at (0, 1, 0) and its body) held at its centre
+/// by a spring stretched to 200 N along +y from a pin at (0, 3, 0): the scene of the 2D and 3D tests that a
+/// pull through a body's centre turns nothing while the body slides across it.
+std::string slideAcrossAPull(const std::string& bodyTables);
+
 /// The names of the demos in demos/ (file stems), sorted.
 std::vector<std::string> demoNames();
 
