@@ -9,6 +9,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <array>
+
 #include <vector>
 
 namespace tumble {
@@ -128,6 +130,18 @@ void BM_PoolForkJoin(benchmark::State& state) {
     }
 }
 BENCHMARK(BM_PoolForkJoin)->Arg(1)->Arg(2);
+
+// what a fork-join itself costs: four chunks of almost nothing (the CG step of a small cloth makes
+// about a hundred of these)
+void BM_PoolForkJoinEmpty(benchmark::State& state) {
+    WorkerPool pool(int(state.range(0)));
+    std::array<double, 64> x{};
+    for (auto _ : state) {
+        pool.forChunks(4, 1, [&](std::size_t c, std::size_t, std::size_t) { x[8 * c] += 1.0; });
+        benchmark::ClobberMemory();
+    }
+}
+BENCHMARK(BM_PoolForkJoinEmpty)->Arg(1)->Arg(2);
 
 } // namespace
 } // namespace tumble
