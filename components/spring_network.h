@@ -28,7 +28,7 @@ inline std::string_view integratorName(Integrator i) {
 }
 
 /// What built the network; it decides the dump's kind and how the renderer draws it.
-enum class NetworkKind : std::uint8_t { Springs, Rope, Cloth, SoftBody };
+enum class NetworkKind : std::uint8_t { Springs, Rope, Cloth, SoftBody, Fem };
 
 /// One spring between masses a and b.
 struct SpringLink {
@@ -37,6 +37,20 @@ struct SpringLink {
     double rest = 0.0;   ///< m, rest length
     double k = 0.0;      ///< N/m, stiffness
     double kd = 0.0;     ///< N s/m, damping along the spring on the relative velocity
+};
+
+/// The elements of a finite-element body (kind Fem; systems/fem.h): linear tetrahedra whose nodes are the
+/// network's masses, with corotational linear elasticity. Empty for every other kind.
+struct FemElements {
+    std::vector<std::array<std::uint32_t, 4>> tets; ///< node indices, positively oriented at rest
+    std::vector<std::array<Vec3, 4>> gradients;     ///< 1/m, of each corner's shape function at rest
+    std::vector<double> volume;                     ///< m^3, at rest
+    /// Each element's rotation at the last step: state, where the next step's search for it starts
+    std::vector<Quat> rotation;
+    double lambda = 0.0;           ///< Pa, first Lame parameter
+    double mu = 0.0;               ///< Pa, shear modulus
+    double stiffnessDamping = 0.0; ///< s, Rayleigh: damping force -beta K v
+    double massDamping = 0.0;      ///< 1/s, Rayleigh: damping force -alpha M v
 };
 
 /// A mass held by a rigid body ([[joint]] type "anchor"): it moves with the body's point, and the body
@@ -72,6 +86,7 @@ struct SpringNetwork {
     NetworkKind kind = NetworkKind::Springs;
     std::array<std::uint32_t, 3> grid{0, 0, 0};          ///< cloth: rows, cols; softbody: nx, ny, nz
     std::vector<std::array<std::uint32_t, 3>> triangles; ///< surface triangles (cloth), counter-clockwise
+    FemElements fem;                                     ///< kind Fem: the elements
 
     // set when the network blew up: it is no longer advanced
     bool frozen = false;

@@ -268,12 +268,28 @@ void refuseStiffAnchors(TableReader& r, World& world, Entity body, double mass, 
                 kd += l.kd;
             }
         }
+        // an fem body's elements: the block K_ab between a held and a free corner is at most
+        // V (lambda + 2 mu) |g_a| |g_b| in norm (systems/fem.h), its damping beta times that
+        const FemElements& fem = net.fem;
+        for (std::size_t e = 0; any && e < fem.tets.size(); ++e) {
+            for (std::size_t a = 0; a < 4; ++a) {
+                for (std::size_t b = 0; b < 4; ++b) {
+                    if (held[fem.tets[e][a]] && !held[fem.tets[e][b]]) {
+                        const double kab = fem.volume[e] * (fem.lambda + 2.0 * fem.mu) *
+                                           length(fem.gradients[e][a]) * length(fem.gradients[e][b]);
+                        k += kab;
+                        kd += fem.stiffnessDamping * kab;
+                    }
+                }
+            }
+        }
     });
     const double omegaDt = std::sqrt(k / mass) * dt;
     if (omegaDt > 1.0 || kd * dt / mass > 1.0) {
         char text[400];
         std::snprintf(text, sizeof text,
-                      "the springs at the masses this body holds (%g N/m, %g N s/m in all) are too stiff (or "
+                      "the springs or elements at the masses this body holds (%g N/m, %g N s/m in all) are "
+                      "too stiff (or "
                       "too damped) for its %g kg at dt = %g s: it takes their pull explicitly, stable while "
                       "sqrt(k/m) dt < 1 here (it is %.3g); make the body heavier, the springs softer, or the "
                       "step shorter",
@@ -289,7 +305,9 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup, double
     const Entity netEntity = lookup(r, "a", true);
     SpringNetwork* net = world.tryGet<SpringNetwork>(netEntity);
     if (!net) {
-        r.fail("a", "an anchor's 'a' must name a spring network (springs, rope, cloth or softbody)");
+        r.fail(
+            "a",
+            "an anchor's 'a' must name a spring network (springs, rope, cloth or softbody) or an fem body");
     }
     if (!r.has("mass")) {
         r.fail("mass", "an anchor needs 'mass', the index of the held mass (or a list of them)");

@@ -225,9 +225,27 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     return stats;
 }
 
+void stepSprings(SpringNetwork& net, SpringWorkspace& work, const Environment& env, double h);
+
 } // namespace
 
 void stepNetwork(SpringNetwork& net, SpringWorkspace& work, const Environment& env, double h) {
+    if (net.kind == NetworkKind::Fem) {
+        work.lastSolve = stepFem(net, work.fem, work.f, work.incidence, env, h);
+    } else {
+        stepSprings(net, work, env, h);
+    }
+    // pinned masses stay where they are
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        if (net.pinned[i]) {
+            net.v[i] = Vec3{};
+        }
+    }
+}
+
+namespace {
+
+void stepSprings(SpringNetwork& net, SpringWorkspace& work, const Environment& env, double h) {
     switch (net.integrator) {
     case Integrator::ExplicitEuler:
         explicitEuler(net, work, env, h);
@@ -246,12 +264,8 @@ void stepNetwork(SpringNetwork& net, SpringWorkspace& work, const Environment& e
                                                   : implicitEuler(net, work, work.single, env, h);
         break;
     }
-    // pinned masses stay where they are
-    for (std::size_t i = 0; i < net.x.size(); ++i) {
-        if (net.pinned[i]) {
-            net.v[i] = Vec3{};
-        }
-    }
 }
+
+} // namespace
 
 } // namespace tumble

@@ -20,6 +20,7 @@
 
 #include "components/spring_network.h"
 #include "systems/block_sparse.h"
+#include "systems/fem.h"
 #include "systems/linear_solver.h"
 #include "systems/spring_forces.h"
 
@@ -64,10 +65,11 @@ struct SpringWorkspace {
 
     ImplicitSolver<float> single;   ///< implicit Euler, solver_precision = "float" (the default)
     ImplicitSolver<double> precise; ///< implicit Euler, solver_precision = "double"
+    FemSolver fem;                  ///< an fem body's (kind Fem)
     SolveStats lastSolve;
 };
 
-/// Advances a network by one step of its integrator.
+/// Advances a network by one step of its integrator (an fem body: systems/fem.h).
 void stepNetwork(SpringNetwork& net, SpringWorkspace& work, const Environment& env, double h);
 
 } // namespace tumble

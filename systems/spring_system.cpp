@@ -10,6 +10,8 @@
 #include "engine/scene.h"
 #include "engine/transform.h"
 #include "systems/cloth_collision.h"
+#include "systems/fem.h"
+#include "systems/obj_mesh.h"
 #include "systems/spring_builders.h"
 #include "systems/spring_integrators.h"
 
@@ -288,7 +290,128 @@ void loadSoftBody(TableReader& r, World& world, Entity entity, const SceneDef&) 
     attach(r, world, entity, std::move(net));
 }
 
-constexpr std::string_view kShapeNames[] = {"springs", "rope", "cloth", "softbody"};
+/// `resolution` of an fem box: three whole numbers of cells, at least one each.
+std::array<int, 3> readCells(TableReader& r, std::array<double, 3> fallback) {
+    const auto res = r.vector<3>("resolution", fallback, 1.0, 1000.0);
+    std::array<int, 3> cells{};
+    for (std::size_t a = 0; a < 3; ++a) {
+        if (res[a] != std::floor(res[a])) {
+            r.fail("resolution", "'resolution' in " + r.where() + " must be whole numbers of cells");
+        }
+        cells[a] = static_cast<int>(res[a]);
+    }
+    return cells;
+}
+
+/// The mesh of [entity.fem]: a box, a sphere or TetGen's files; the elements and nodes are charged to the
+/// memory cap before they are made. Box faces name pins; `faces` says whether they can.
+TetMesh readFemMesh(TableReader& r, const Vec3& centre, std::array<int, 3>& boxCells, bool& isBox) {
+    const std::string mesh = r.string("mesh", "box");
+    constexpr std::size_t kBytesPerTet = 700, kBytesPerNode = 900; // measured: see README "Finite elements"
+    auto charge = [&](std::size_t nodes, std::size_t tets) {
+        r.charge("mesh", tets * kBytesPerTet + nodes * kBytesPerNode,
+                 r.where() + " (" + std::to_string(nodes) + " nodes, " + std::to_string(tets) +
+                     " tetrahedra)");
+    };
+    isBox = mesh == "box";
+    if (isBox) {
+        const auto size = r.vector<3>("size", {1.0, 1.0, 1.0}, 1e-6, 1e6);
+        boxCells = readCells(r, {4.0, 4.0, 4.0});
+        const std::size_t cells = std::size_t(boxCells[0]) * boxCells[1] * boxCells[2];
+        if (cells > 400000) {
+            r.fail("resolution", r.where() + " has " + std::to_string(cells) +
+                                     " cells (6 tetrahedra each); at most 400000 are allowed");
+        }
+        charge(std::size_t(boxCells[0] + 1) * (boxCells[1] + 1) * (boxCells[2] + 1), 6 * cells);
+        return boxTets(centre, size, boxCells);
+    }
+    if (mesh == "sphere") {
+        const double radius = r.number("radius", 0.5, 1e-6, 1e6);
+        const auto cells = static_cast<int>(r.integer("resolution", 6, 1, 60));
+        charge(std::size_t(cells + 1) * (cells + 1) * (cells + 1), 6 * std::size_t(cells) * cells * cells);
+        return sphereTets(centre, radius, cells);
+    }
+    if (mesh.size() < 4 || mesh.substr(mesh.size() - 4) != ".ele") {
+        r.fail("mesh", "'mesh' in " + r.where() + " is '" + mesh +
+                           "'; expected \"box\", \"sphere\" or a TetGen .ele file (its .node beside it)");
+    }
+    const std::string file = findMeshFile(mesh, r.context().file);
+    if (file.empty()) {
+        r.fail("mesh",
+               "mesh file '" + mesh + "' not found (looked next to the scenario and under the project root)");
+    }
+    const std::uint64_t cap = r.context().memoryCap;
+    try {
+        TetMesh m =
+            readTetGen(file, centre, std::size_t(cap / kBytesPerNode), std::size_t(cap / kBytesPerTet));
+        charge(m.nodes.size(), m.tets.size());
+        return m;
+    } catch (const std::runtime_error& e) {
+        r.fail("mesh", e.what());
+    }
+}
+
+/// [entity.fem] (README, "Finite-element bodies").
+void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    const Vec3 centre = world.get<Transform>(entity).position;
+    std::array<int, 3> cells{};
+    bool isBox = false;
+    const TetMesh mesh = readFemMesh(r, centre, cells, isBox);
+    FemMaterial material;
+    material.young = r.number("young", 1e5, 1e-3, 1e13);
+    material.poisson = r.number("poisson", 0.3, -1e9, 1e9);
+    if (!(material.poisson > -1.0 && material.poisson < 0.5)) {
+        r.fail("poisson", "'poisson' in " + r.where() + " is " + std::to_string(material.poisson) +
+                              "; a stable material has -1 < poisson < 0.5 (0.5 is incompressible, which "
+                              "linear tetrahedra lock on)");
+    }
+    material.density = r.number("density", 1000.0, 1e-6, 1e6);
+    material.stiffnessDamping = r.number("damping", 0.01, 0.0, 1e3);
+    material.massDamping = r.number("mass_damping", 0.0, 0.0, 1e6);
+    const std::size_t n = mesh.nodes.size();
+    const std::vector<std::uint32_t> pins = readPins(
+        r, n, "none",
+        [&](const std::string& p, std::vector<std::uint32_t>& out) {
+            out.clear();
+            return p == "none" || (isBox && boxFace(p, cells, out));
+        },
+        isBox ? "'none', 'top', 'bottom', 'left', 'right', 'front', 'back'"
+              : "'none' (the mesh is not a box)");
+    const auto lin = r.vector<3>("linear_velocity", {0.0, 0.0, 0.0}, -1e4, 1e4);
+    const auto ang = r.vector<3>("angular_velocity", {0.0, 0.0, 0.0}, -1e4, 1e4);
+    SpringNetwork net;
+    try {
+        net = buildFem(mesh, material, pins);
+    } catch (const std::invalid_argument& e) {
+        r.fail("mesh", r.where() + ": " + e.what());
+    }
+    readCommon(r, net, "implicit_euler");
+    if (net.integrator != Integrator::ImplicitEuler && net.integrator != Integrator::SymplecticEuler) {
+        r.fail("integrator",
+               "an fem body in " + r.where() + " is advanced by \"implicit_euler\" or \"symplectic_euler\"");
+    }
+    if (net.doublePrecisionSolve) {
+        r.fail("solver_precision", "an fem body solves in float: leave out 'solver_precision'");
+    }
+    // the start's velocity: v + w x (x - centre of mass)
+    Vec3 com;
+    double total = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        com += net.x[i] * (1.0 / net.invMass[i]);
+        total += 1.0 / net.invMass[i];
+    }
+    com = com * (1.0 / total);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!net.pinned[i]) {
+            net.v[i] = Vec3{lin[0], lin[1], lin[2]} + cross(Vec3{ang[0], ang[1], ang[2]}, net.x[i] - com);
+        }
+    }
+    net.implicitCharged = true;
+    world.emplace<SpringNetwork>(entity, std::move(net));
+    world.emplace<SpringWorkspace>(entity);
+}
+
+constexpr std::string_view kShapeNames[] = {"springs", "rope", "cloth", "softbody", "fem"};
 
 void dumpNetwork(const SpringNetwork& net, JsonWriter& w) {
     w.key("shape").value(kShapeNames[static_cast<std::size_t>(net.kind)]);
@@ -325,6 +448,9 @@ void hashNetwork(const SpringNetwork& net, Hasher& h) {
     h.add(net.drag);
     h.add(net.integrator);
     h.add(net.frozen);
+    if (net.kind == NetworkKind::Fem) {
+        h.add(net.fem.rotation); // where the next step's search for each element's rotation starts
+    }
 }
 
 std::optional<std::string> needsVector(const World&, Entity, const EventDef& ev) {
@@ -366,6 +492,15 @@ std::optional<std::string> needsFreeableIndices(const World& world, Entity e, co
 
 bool hasSprings(const World& w, Entity e) {
     return w.has<SpringNetwork>(e);
+}
+
+bool isFem(const World& w, Entity e) {
+    const SpringNetwork* net = w.tryGet<SpringNetwork>(e);
+    return net && net->kind == NetworkKind::Fem;
+}
+
+bool isSpringNetwork(const World& w, Entity e) {
+    return hasSprings(w, e) && !isFem(w, e);
 }
 
 /// Adds an action on the free masses (or, for pin/unpin, on the masses listed) of a network.
@@ -494,6 +629,9 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
             const Vec3 u = d * (1.0 / len);
             const Vec3 onA = u * (s.k * (len - s.rest) + s.kd * dot(net.v[s.b] - net.v[s.a], u));
             f += s.a == a.mass ? onA : -onA;
+        }
+        if (net.kind == NetworkKind::Fem) {
+            f += elementForceOn(net, a.mass);
         }
         push(world, a, h.at, f, dt); // the lever from where the body is now, to the point where it is now
     }
@@ -625,14 +763,29 @@ void registerSpringSystem(Catalog& catalog) {
     catalog.addComponent({"rope", loadRope});
     catalog.addComponent({"cloth", loadCloth});
     catalog.addComponent({"softbody", loadSoftBody});
-    catalog.addRetune(Retune{{"springs", "rope", "cloth", "softbody"},
+    catalog.addComponent({"fem", loadFem});
+    catalog.addRetune(Retune{{"springs", "rope", "cloth", "softbody", "fem"},
                              hasSprings,
                              [](const World& bw, Entity b, const World& aw, Entity a) {
                                  return sameShape(bw.get<SpringNetwork>(b), aw.get<SpringNetwork>(a));
                              },
                              patchNetwork});
+    catalog.addState(
+        StateCodec{"fem", isFem,
+                   [](const World& w, Entity e, JsonWriter& out) {
+                       const SpringNetwork& net = w.get<SpringNetwork>(e);
+                       out.key("nodes").value(static_cast<std::uint64_t>(net.x.size()));
+                       out.key("tetrahedra").value(static_cast<std::uint64_t>(net.fem.tets.size()));
+                       dumpNetwork(net, out);
+                   },
+                   [](const World& w, Entity e, Hasher& h) {
+                       hashNetwork(w.get<SpringNetwork>(e), h);
+                       if (const auto* work = w.tryGet<SpringWorkspace>(e)) {
+                           h.add(work->fem.dv);
+                       }
+                   }});
     catalog.addState(StateCodec{
-        "springs", hasSprings,
+        "springs", isSpringNetwork,
         [](const World& w, Entity e, JsonWriter& out) { dumpNetwork(w.get<SpringNetwork>(e), out); },
         [](const World& w, Entity e, Hasher& h) {
             hashNetwork(w.get<SpringNetwork>(e), h);

@@ -1,0 +1,652 @@
+#include "systems/fem.h"
+
+#include "engine/parallel.h"
+#include "engine/profiler.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+namespace tumble {
+
+namespace {
+
+using Matrix3 = Eigen::Matrix3d;
+
+Matrix3 toEigen(const Mat3& m) {
+    Matrix3 r;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            r(i, j) = m.m[std::size_t(3 * i + j)];
+        }
+    }
+    return r;
+}
+
+Mat3 fromEigen(const Matrix3& m) {
+    Mat3 r;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            r.m[std::size_t(3 * i + j)] = m(i, j);
+        }
+    }
+    return r;
+}
+
+Eigen::Vector3d toEigen(const Vec3& v) {
+    return {v.x, v.y, v.z};
+}
+
+Vec3 fromEigen(const Eigen::Vector3d& v) {
+    return {v.x(), v.y(), v.z()};
+}
+
+/// Rest shape matrix of an element: the edges from corner 0, as columns.
+Matrix3 edges(const std::vector<Vec3>& x, const std::array<std::uint32_t, 4>& t) {
+    Matrix3 d;
+    for (int c = 0; c < 3; ++c) {
+        d.col(c) = toEigen(x[t[std::size_t(c) + 1]] - x[t[0]]);
+    }
+    return d;
+}
+
+/// F = sum_a x_a g_a^T, and the same of velocities (the rate of F).
+Matrix3 gradientOf(const std::vector<Vec3>& x, const std::array<std::uint32_t, 4>& t,
+                   const std::array<Vec3, 4>& g) {
+    Matrix3 f = Matrix3::Zero();
+    for (std::size_t a = 0; a < 4; ++a) {
+        f += toEigen(x[t[a]]) * toEigen(g[a]).transpose();
+    }
+    return f;
+}
+
+/// The linear stress of a (symmetric part of a) displacement gradient: lambda tr(e) I + 2 mu e.
+Matrix3 stressOf(const Matrix3& grad, double lambda, double mu) {
+    const Matrix3 e = 0.5 * (grad + grad.transpose());
+    return lambda * e.trace() * Matrix3::Identity() + 2.0 * mu * e;
+}
+
+std::string nodesOf(const std::array<std::uint32_t, 4>& t) {
+    return std::to_string(t[0]) + ", " + std::to_string(t[1]) + ", " + std::to_string(t[2]) + ", " +
+           std::to_string(t[3]);
+}
+
+/// The faces that belong to one element only, each turned so that its normal points away from the
+/// element's fourth corner (out of the body).
+std::vector<std::array<std::uint32_t, 3>> boundaryFaces(const TetMesh& mesh) {
+    struct Face {
+        std::array<std::uint32_t, 3> key, corners;
+    };
+    std::vector<Face> faces;
+    faces.reserve(mesh.tets.size() * 4);
+    for (const auto& t : mesh.tets) {
+        for (std::size_t skip = 0; skip < 4; ++skip) {
+            std::array<std::uint32_t, 3> c{};
+            std::size_t k = 0;
+            for (std::size_t a = 0; a < 4; ++a) {
+                if (a != skip) {
+                    c[k++] = t[a];
+                }
+            }
+            const Vec3 n = cross(mesh.nodes[c[1]] - mesh.nodes[c[0]], mesh.nodes[c[2]] - mesh.nodes[c[0]]);
+            if (dot(n, mesh.nodes[t[skip]] - mesh.nodes[c[0]]) > 0.0) {
+                std::swap(c[1], c[2]);
+            }
+            std::array<std::uint32_t, 3> key = c;
+            std::sort(key.begin(), key.end());
+            faces.push_back({key, c});
+        }
+    }
+    std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
+    std::vector<std::array<std::uint32_t, 3>> out;
+    for (std::size_t i = 0; i < faces.size();) {
+        std::size_t j = i + 1;
+        while (j < faces.size() && faces[j].key == faces[i].key) {
+            ++j;
+        }
+        if (j - i == 1) {
+            out.push_back(faces[i].corners);
+        }
+        i = j;
+    }
+    return out;
+}
+
+/// A line of a TetGen file with its number, comments stripped; nullopt at the end.
+struct LineReader {
+    std::ifstream in;
+    std::string name;
+    int number = 0;
+
+    std::optional<std::istringstream> next() {
+        std::string line;
+        while (std::getline(in, line)) {
+            ++number;
+            line = line.substr(0, line.find('#'));
+            if (line.find_first_not_of(" \t\r") != std::string::npos) {
+                return std::istringstream(line);
+            }
+        }
+        return std::nullopt;
+    }
+    [[noreturn]] void fail(const std::string& what) const {
+        throw std::runtime_error(name + ":" + std::to_string(number) + ": " + what);
+    }
+};
+
+} // namespace
+
+TetMesh boxTets(const Vec3& centre, const std::array<double, 3>& size, const std::array<int, 3>& res) {
+    TetMesh mesh;
+    const int nx = res[0] + 1, ny = res[1] + 1, nz = res[2] + 1;
+    mesh.nodes.reserve(std::size_t(nx) * ny * nz);
+    for (int k = 0; k < nz; ++k) {
+        for (int j = 0; j < ny; ++j) {
+            for (int i = 0; i < nx; ++i) {
+                mesh.nodes.push_back(centre + Vec3{size[0] * (double(i) / res[0] - 0.5),
+                                                   size[1] * (double(j) / res[1] - 0.5),
+                                                   size[2] * (double(k) / res[2] - 0.5)});
+            }
+        }
+    }
+    auto node = [&](int i, int j, int k) { return std::uint32_t(i + nx * (j + ny * k)); };
+    // the six paths from corner (0, 0, 0) to (1, 1, 1) along the axes, one tetrahedron each
+    constexpr int kOrders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    mesh.tets.reserve(std::size_t(res[0]) * res[1] * res[2] * 6);
+    for (int k = 0; k < res[2]; ++k) {
+        for (int j = 0; j < res[1]; ++j) {
+            for (int i = 0; i < res[0]; ++i) {
+                for (const auto& order : kOrders) {
+                    int at[3] = {i, j, k};
+                    std::array<std::uint32_t, 4> t{};
+                    t[0] = node(at[0], at[1], at[2]);
+                    for (std::size_t s = 0; s < 3; ++s) {
+                        ++at[order[s]];
+                        t[s + 1] = node(at[0], at[1], at[2]);
+                    }
+                    if (edges(mesh.nodes, t).determinant() < 0.0) {
+                        std::swap(t[1], t[2]);
+                    }
+                    mesh.tets.push_back(t);
+                }
+            }
+        }
+    }
+    return mesh;
+}
+
+bool boxFace(const std::string& face, const std::array<int, 3>& res, std::vector<std::uint32_t>& nodes) {
+    static const std::map<std::string, std::pair<int, bool>> kFaces = {
+        {"left", {0, false}}, {"right", {0, true}}, {"bottom", {1, false}},
+        {"top", {1, true}},   {"back", {2, false}}, {"front", {2, true}}};
+    const auto it = kFaces.find(face);
+    if (it == kFaces.end()) {
+        return false;
+    }
+    const auto [axis, high] = it->second;
+    nodes.clear();
+    int at[3];
+    for (at[2] = 0; at[2] <= res[2]; ++at[2]) {
+        for (at[1] = 0; at[1] <= res[1]; ++at[1]) {
+            for (at[0] = 0; at[0] <= res[0]; ++at[0]) {
+                if (at[axis] == (high ? res[std::size_t(axis)] : 0)) {
+                    nodes.push_back(std::uint32_t(at[0] + (res[0] + 1) * (at[1] + (res[1] + 1) * at[2])));
+                }
+            }
+        }
+    }
+    return true;
+}
+
+TetMesh sphereTets(const Vec3& centre, double radius, int cells) {
+    const TetMesh box = boxTets(centre, {2 * radius, 2 * radius, 2 * radius}, {cells, cells, cells});
+    TetMesh mesh;
+    std::vector<std::uint32_t> renumber(box.nodes.size(), 0xffffffffu);
+    for (const auto& t : box.tets) {
+        const Vec3 c = (box.nodes[t[0]] + box.nodes[t[1]] + box.nodes[t[2]] + box.nodes[t[3]]) * 0.25;
+        if (length(c - centre) > radius) {
+            continue;
+        }
+        std::array<std::uint32_t, 4> kept{};
+        for (std::size_t a = 0; a < 4; ++a) {
+            if (renumber[t[a]] == 0xffffffffu) {
+                renumber[t[a]] = std::uint32_t(mesh.nodes.size());
+                mesh.nodes.push_back(box.nodes[t[a]]);
+            }
+            kept[a] = renumber[t[a]];
+        }
+        mesh.tets.push_back(kept);
+    }
+    return mesh;
+}
+
+TetMesh readTetGen(const std::filesystem::path& ele, const Vec3& offset, std::size_t maxNodes,
+                   std::size_t maxTets) {
+    std::filesystem::path nodePath = ele;
+    nodePath.replace_extension(".node");
+    LineReader nodes{std::ifstream(nodePath), nodePath.string()};
+    if (!nodes.in) {
+        throw std::runtime_error(nodePath.string() + ": cannot be read (the .node file beside '" +
+                                 ele.string() + "')");
+    }
+    TetMesh mesh;
+    auto header = nodes.next();
+    long long count = -1, dim = -1, attributes = -1, markers = -1;
+    if (!header || !(*header >> count >> dim >> attributes >> markers) || count < 4 || dim != 3 ||
+        attributes < 0 || markers < 0 || markers > 1) {
+        nodes.fail(
+            "expected the header '<nodes> 3 <attributes> <0|1 boundary marker>' with at least 4 nodes");
+    }
+    if (std::size_t(count) > maxNodes) {
+        nodes.fail(std::to_string(count) + " nodes; at most " + std::to_string(maxNodes) + " are allowed");
+    }
+    mesh.nodes.reserve(std::size_t(count));
+    long long first = 0;
+    for (long long i = 0; i < count; ++i) {
+        auto line = nodes.next();
+        long long index = 0;
+        double x = 0, y = 0, z = 0;
+        if (!line) {
+            nodes.fail("the file ends after " + std::to_string(i) + " of its " + std::to_string(count) +
+                       " nodes");
+        }
+        if (!(*line >> index >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+            nodes.fail("expected '<index> <x> <y> <z>', finite numbers");
+        }
+        if (i == 0) {
+            first = index;
+            if (first != 0 && first != 1) {
+                nodes.fail("the first node is numbered " + std::to_string(index) +
+                           "; TetGen numbers from 0 or 1");
+            }
+        }
+        if (index != first + i) {
+            nodes.fail("node " + std::to_string(index) + " where " + std::to_string(first + i) +
+                       " was expected");
+        }
+        mesh.nodes.push_back(Vec3{x, y, z} + offset);
+    }
+    LineReader tets{std::ifstream(ele), ele.string()};
+    if (!tets.in) {
+        throw std::runtime_error(ele.string() + ": cannot be read");
+    }
+    header = tets.next();
+    long long perTet = 0;
+    if (!header || !(*header >> count >> perTet >> attributes) || count < 1 ||
+        (perTet != 4 && perTet != 10) || attributes < 0) {
+        tets.fail("expected the header '<tetrahedra> 4 <attributes>'");
+    }
+    if (perTet == 10) {
+        tets.fail("second-order (10-node) tetrahedra are not supported: make the mesh without -o2");
+    }
+    if (std::size_t(count) > maxTets) {
+        tets.fail(std::to_string(count) + " tetrahedra; at most " + std::to_string(maxTets) + " are allowed");
+    }
+    mesh.tets.reserve(std::size_t(count));
+    for (long long i = 0; i < count; ++i) {
+        auto line = tets.next();
+        if (!line) {
+            tets.fail("the file ends after " + std::to_string(i) + " of its " + std::to_string(count) +
+                      " tetrahedra");
+        }
+        long long index = 0, n[4] = {};
+        if (!(*line >> index >> n[0] >> n[1] >> n[2] >> n[3])) {
+            tets.fail("expected '<index> <node> <node> <node> <node>'");
+        }
+        std::array<std::uint32_t, 4> t{};
+        for (std::size_t a = 0; a < 4; ++a) {
+            if (n[a] < first || n[a] - first >= static_cast<long long>(mesh.nodes.size())) {
+                tets.fail("node " + std::to_string(n[a]) + " is not in '" + nodePath.filename().string() +
+                          "' (" + std::to_string(first) + " to " +
+                          std::to_string(first + static_cast<long long>(mesh.nodes.size()) - 1) + ")");
+            }
+            t[a] = std::uint32_t(n[a] - first);
+        }
+        // TetGen's orientation is ours: the fourth corner on the side the first three's edges turn
+        // counter-clockwise about (a positive determinant of the edges from the first)
+        mesh.tets.push_back(t);
+    }
+    return mesh;
+}
+
+SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
+                       const std::vector<std::uint32_t>& pins) {
+    SpringNetwork net;
+    net.kind = NetworkKind::Fem;
+    const std::size_t n = mesh.nodes.size();
+    net.x = mesh.nodes;
+    net.v.assign(n, Vec3{});
+    net.pinned.assign(n, 0);
+    std::vector<double> mass(n, 0.0);
+    FemElements& fem = net.fem;
+    fem.tets = mesh.tets;
+    fem.gradients.resize(mesh.tets.size());
+    fem.volume.resize(mesh.tets.size());
+    fem.rotation.assign(mesh.tets.size(), kNoRotation);
+    for (std::size_t e = 0; e < mesh.tets.size(); ++e) {
+        const auto& t = mesh.tets[e];
+        const Matrix3 d = edges(mesh.nodes, t);
+        double longest = 0.0;
+        for (std::size_t a = 0; a < 4; ++a) {
+            for (std::size_t b = a + 1; b < 4; ++b) {
+                longest = std::max(longest, length(mesh.nodes[t[b]] - mesh.nodes[t[a]]));
+            }
+        }
+        const double volume = d.determinant() / 6.0;
+        // a regular tetrahedron of edge l has volume l^3 / (6 sqrt 2); a thousandth of that is a sliver
+        if (!(std::abs(volume) > 1e-4 * longest * longest * longest)) {
+            throw std::invalid_argument("element " + std::to_string(e) + " (nodes " + nodesOf(t) +
+                                        ") is degenerate: its volume " + std::to_string(volume) +
+                                        " m^3 is nearly zero for its size");
+        }
+        if (volume < 0.0) {
+            throw std::invalid_argument("element " + std::to_string(e) + " (nodes " + nodesOf(t) +
+                                        ") is inverted at rest: its corners are listed the other way round "
+                                        "from the mesh's other elements");
+        }
+        const Matrix3 inverse = d.inverse();
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        for (std::size_t a = 1; a < 4; ++a) {
+            const Eigen::Vector3d g = inverse.row(Eigen::Index(a - 1)).transpose();
+            fem.gradients[e][a] = fromEigen(g);
+            sum += g;
+        }
+        fem.gradients[e][0] = fromEigen(Eigen::Vector3d(-sum));
+        fem.volume[e] = volume;
+        for (std::uint32_t node : t) {
+            mass[node] += 0.25 * material.density * volume;
+        }
+    }
+    net.invMass.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!(mass[i] > 0.0)) {
+            throw std::invalid_argument("node " + std::to_string(i) + " belongs to no element");
+        }
+        net.invMass[i] = 1.0 / mass[i];
+    }
+    for (std::uint32_t p : pins) {
+        net.pinned[p] = 1;
+    }
+    const double e = material.young, nu = material.poisson;
+    fem.lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    fem.mu = e / (2.0 * (1.0 + nu));
+    fem.stiffnessDamping = material.stiffnessDamping;
+    fem.massDamping = material.massDamping;
+    net.triangles = boundaryFaces(mesh);
+    net.integrator = Integrator::ImplicitEuler;
+    return net;
+}
+
+Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch) {
+    const Matrix3 f = toEigen(fm);
+    Eigen::Quaterniond r(q.w, q.x, q.y, q.z);
+    if (fromScratch || !(f.determinant() > 0.0)) {
+        // the SVD, with a reflection moved onto the smallest singular value (Irving et al. 2004)
+        Eigen::JacobiSVD<Matrix3> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        Matrix3 u = svd.matrixU();
+        Matrix3 v = svd.matrixV();
+        if (u.determinant() < 0.0) {
+            u.col(2) = -u.col(2);
+        }
+        if (v.determinant() < 0.0) {
+            v.col(2) = -v.col(2);
+        }
+        r = Eigen::Quaterniond(Matrix3(u * v.transpose()));
+    } else {
+        // Newton's method on the condition that R^T F be symmetric, from last step's R: with M = R^T F and
+        // S = sym(M), the turn t that symmetrises R exp([t])'s M to first order solves
+        // (tr(S) I - S) t = axial(M - M^T); quadratic, so one or two steps a step. Where tr(S) I - S is
+        // near singular (an element nearly flat), the step of Mueller et al. 2016 instead, t = sum_i
+        // r_i x f_i / |sum_i r_i . f_i| in the world frame, which always makes progress
+        for (int it = 0; it < 16; ++it) {
+            const Matrix3 rm = r.toRotationMatrix();
+            const Matrix3 m = rm.transpose() * f;
+            const Eigen::Vector3d w(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
+            const Matrix3 sym = 0.5 * (m + m.transpose());
+            const Matrix3 g = sym.trace() * Matrix3::Identity() - sym;
+            const double scale = std::abs(sym.trace()) + 1e-300;
+            Eigen::Vector3d turn;
+            bool bodyFrame = true;
+            if (g.determinant() > 1e-6 * scale * scale * scale) {
+                turn = g.inverse() * w;
+            } else {
+                turn = (rm.col(0).cross(f.col(0)) + rm.col(1).cross(f.col(1)) + rm.col(2).cross(f.col(2))) /
+                       scale;
+                bodyFrame = false;
+            }
+            const double angle = turn.norm();
+            if (!(angle > 1e-12)) {
+                break;
+            }
+            const Eigen::Quaterniond step(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
+            r = bodyFrame ? r * step : step * r;
+            r.normalize();
+        }
+    }
+    r.normalize();
+    q = {r.x(), r.y(), r.z(), r.w()};
+    return fromEigen(r.toRotationMatrix());
+}
+
+namespace {
+
+/// Element e's rotation this step, its state updated.
+/// One element this step: its deformation gradient, rotation and corner forces.
+struct ElementState {
+    Matrix3 f, r;
+    std::array<Eigen::Vector3d, 4> force;
+};
+
+/// Element e at (x, v): its rotation (the state updated), and its forces on its corners, elastic at x
+/// plus the stiffness term at v scaled by `damping` (beta for the damping force; h + beta for implicit
+/// Euler's right-hand side, which holds -(h + beta) K v).
+ElementState element(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                     std::size_t e, Quat& state, double damping) {
+    const FemElements& fem = net.fem;
+    const auto& t = fem.tets[e];
+    const auto& g = fem.gradients[e];
+    ElementState out;
+    out.f = gradientOf(x, t, g);
+    const bool fresh = state == kNoRotation;
+    out.r = toEigen(rotationOf(fromEigen(out.f), state, fresh));
+    const Matrix3 strain = out.r.transpose() * out.f - Matrix3::Identity();
+    const Matrix3 rate = out.r.transpose() * gradientOf(v, t, g);
+    const Matrix3 p =
+        out.r * (stressOf(strain, fem.lambda, fem.mu) + damping * stressOf(rate, fem.lambda, fem.mu));
+    for (std::size_t a = 0; a < 4; ++a) {
+        out.force[a] = -fem.volume[e] * (p * toEigen(g[a]));
+    }
+    return out;
+}
+
+} // namespace
+
+Vec3 elementForceOn(const SpringNetwork& net, std::uint32_t node) {
+    const FemElements& fem = net.fem;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (std::size_t e = 0; e < fem.tets.size(); ++e) {
+        for (std::size_t k = 0; k < 4; ++k) {
+            if (fem.tets[e][k] == node) {
+                Quat q = fem.rotation[e]; // a copy: the state is the step's, not this query's
+                sum += element(net, net.x, net.v, e, q, fem.stiffnessDamping).force[k];
+            }
+        }
+    }
+    return fromEigen(sum);
+}
+
+void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                      std::vector<Vec3>& f, std::vector<Mat3>& rotations, std::vector<Quat>& rotationState) {
+    const FemElements& fem = net.fem;
+    rotations.resize(fem.tets.size());
+    for (std::size_t e = 0; e < fem.tets.size(); ++e) {
+        const ElementState el = element(net, x, v, e, rotationState[e], fem.stiffnessDamping);
+        rotations[e] = fromEigen(el.r);
+        for (std::size_t a = 0; a < 4; ++a) {
+            f[fem.tets[e][a]] += fromEigen(el.force[a]);
+        }
+    }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        f[i] -= v[i] * (fem.massDamping / net.invMass[i]);
+    }
+}
+
+namespace {
+
+void buildFemPattern(const SpringNetwork& net, FemSolver& s) {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    pairs.reserve(net.fem.tets.size() * 6);
+    for (const auto& t : net.fem.tets) {
+        for (std::size_t a = 0; a < 4; ++a) {
+            for (std::size_t b = a + 1; b < 4; ++b) {
+                pairs.emplace_back(std::min(t[a], t[b]), std::max(t[a], t[b]));
+            }
+        }
+    }
+    s.system = BlockMatrix<float>::fromPairs(std::uint32_t(net.x.size()), std::move(pairs));
+    s.tetBlocks.resize(net.fem.tets.size());
+    for (std::size_t e = 0; e < net.fem.tets.size(); ++e) {
+        const auto& t = net.fem.tets[e];
+        for (std::size_t a = 0; a < 4; ++a) {
+            for (std::size_t b = 0; b < 4; ++b) {
+                s.tetBlocks[e][4 * a + b] = s.system.find(t[b], t[a]);
+            }
+        }
+    }
+    s.dv.assign(net.x.size(), Vec3T<float>{});
+    s.multigrid = AggregationMultigrid<float>{};
+    s.pinnedWhenBuilt.clear();
+}
+
+void findFemPinnedBlocks(const SpringNetwork& net, FemSolver& s) {
+    const BlockMatrix<float>& a = s.system;
+    s.pinnedBlocks.clear();
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        if (!net.pinned[i]) {
+            continue;
+        }
+        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
+            if (a.col[b] != i) {
+                s.pinnedBlocks.push_back(b);
+                s.pinnedBlocks.push_back(a.find(a.col[b], i));
+            }
+        }
+    }
+    s.pinnedWhenBuilt = net.pinned;
+}
+
+/// Implicit Euler (see the header comment); f holds the external forces.
+SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, const Environment& env,
+                       double h) {
+    const std::size_t n = net.x.size();
+    const FemElements& fem = net.fem;
+    if (s.system.n != n || s.tetBlocks.size() != fem.tets.size()) {
+        buildFemPattern(net, s);
+    }
+    if (s.pinnedWhenBuilt != net.pinned) {
+        findFemPinnedBlocks(net, s);
+    }
+    std::optional<ProfileStage> stage(std::in_place, env.profiler, "fem.assemble");
+    const double alpha = fem.massDamping, beta = fem.stiffnessDamping;
+    const double c = h * h + h * beta; // the stiffness's weight in the system
+    s.blocks.assign(s.system.val.size(), Mat3{});
+    s.rhs.assign(n, Vec3{});
+    for (std::size_t i = 0; i < n; ++i) {
+        const double m = 1.0 / net.invMass[i];
+        s.blocks[s.system.diag[i]] =
+            Mat3::identity(m * (1.0 + h * alpha) + h * massDamping(net, env, net.x[i]));
+        s.rhs[i] = (f[i] - net.v[i] * (alpha * m)) * h;
+    }
+    // each element's rotation, forces and turned gradients q = R g, shared out over threads (each
+    // element writes its own); then summed into the nodes and blocks in element order, on one thread
+    WorkerPool& pool = poolOr(env.pool);
+    s.elements.resize(fem.tets.size());
+    pool.forEach(fem.tets.size(), 1024, [&](std::size_t e) {
+        const ElementState el = element(net, net.x, net.v, e, net.fem.rotation[e], h + beta);
+        FemSolver::Element& out = s.elements[e];
+        for (std::size_t k = 0; k < 4; ++k) {
+            out.force[k] = fromEigen(el.force[k]);
+            out.turned[k] = fromEigen(Eigen::Vector3d(el.r * toEigen(fem.gradients[e][k])));
+        }
+    });
+    for (std::size_t e = 0; e < fem.tets.size(); ++e) {
+        const auto& t = fem.tets[e];
+        const auto& g = fem.gradients[e];
+        const FemSolver::Element& el = s.elements[e];
+        for (std::size_t k = 0; k < 4; ++k) {
+            s.rhs[t[k]] += el.force[k] * h;
+        }
+        // the blocks R K_ab R^T = V [lambda q_a q_b^T + mu (g_a . g_b) I + mu q_b q_a^T]: the slot of
+        // (b, a) holds the transpose of A_ba, which is A_ab, as the kernels read a block's rows as its
+        // columns (block_kernels.h)
+        const double weight = fem.volume[e] * c;
+        for (std::size_t i = 0; i < 4; ++i) {
+            const double qa[3] = {el.turned[i].x, el.turned[i].y, el.turned[i].z};
+            for (std::size_t j = 0; j < 4; ++j) {
+                const double qb[3] = {el.turned[j].x, el.turned[j].y, el.turned[j].z};
+                Mat3& block = s.blocks[s.tetBlocks[e][4 * i + j]];
+                const double diagonal = weight * fem.mu * dot(g[i], g[j]);
+                for (std::size_t r = 0; r < 3; ++r) {
+                    for (std::size_t col = 0; col < 3; ++col) {
+                        block.m[3 * r + col] +=
+                            weight * (fem.lambda * qa[r] * qb[col] + fem.mu * qb[r] * qa[col]) +
+                            (r == col ? diagonal : 0.0);
+                    }
+                }
+            }
+        }
+    }
+    BlockMatrix<float>& a = s.system;
+    for (std::size_t b = 0; b < a.val.size(); ++b) {
+        a.val[b] = s.blocks[b].cast<float>();
+    }
+    for (std::uint32_t b : s.pinnedBlocks) {
+        a.val[b] = Mat3T<float>{};
+    }
+    s.rhsFloat.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (net.pinned[i]) {
+            a.val[a.diag[i]] = Mat3T<float>::identity();
+            s.rhsFloat[i] = Vec3T<float>{};
+        } else {
+            s.rhsFloat[i] = Vec3T<float>::from(s.rhs[i]);
+        }
+    }
+    stage.emplace(env.profiler, "fem.solve");
+    s.multigrid.update(a, pool);
+    const SolveStats stats = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
+                                      net.cgMaxIterations, s.pcg, pool);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!net.pinned[i]) {
+            net.v[i] += s.dv[i].toVec3();
+            net.x[i] += net.v[i] * h;
+        }
+    }
+    return stats;
+}
+
+} // namespace
+
+SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, ForceIncidence& incidence,
+                   const Environment& env, double h) {
+    externalForces(net, env, net.x, net.v, f, incidence);
+    if (net.integrator == Integrator::ImplicitEuler) {
+        return implicitFem(net, solver, f, env, h);
+    }
+    addElementForces(net, net.x, net.v, f, solver.rotations, net.fem.rotation);
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        if (!net.pinned[i]) {
+            net.v[i] += f[i] * (net.invMass[i] * h);
+            net.x[i] += net.v[i] * h;
+        }
+    }
+    return {};
+}
+
+} // namespace tumble
