@@ -427,6 +427,9 @@ Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch) {
             const Eigen::Quaterniond step(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
             r = bodyFrame ? r * step : step * r;
             r.normalize();
+            if (bodyFrame && angle < 1e-5) {
+                break; // Newton: what is left is of the order of this turn squared, under 1e-10 rad
+            }
         }
     }
     r.normalize();
@@ -499,6 +502,22 @@ void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, cons
 
 namespace {
 
+/// Lists in compressed-row form from a map item -> list: list l gets its items in ascending order.
+void invertLists(const std::vector<std::uint32_t>& listOf, std::uint32_t lists, FemSolver::Lists& out) {
+    out.start.assign(std::size_t(lists) + 1, 0);
+    for (std::uint32_t l : listOf) {
+        ++out.start[std::size_t(l) + 1];
+    }
+    for (std::uint32_t l = 0; l < lists; ++l) {
+        out.start[std::size_t(l) + 1] += out.start[l];
+    }
+    out.items.resize(listOf.size());
+    std::vector<std::uint32_t> next(out.start.begin(), out.start.end() - 1);
+    for (std::uint32_t k = 0; k < listOf.size(); ++k) {
+        out.items[next[listOf[k]]++] = k;
+    }
+}
+
 void buildFemPattern(const SpringNetwork& net, FemSolver& s) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
     pairs.reserve(net.fem.tets.size() * 6);
@@ -519,6 +538,18 @@ void buildFemPattern(const SpringNetwork& net, FemSolver& s) {
             }
         }
     }
+    // per block and per node, the element corners that add to it, ascending
+    std::vector<std::uint32_t> blockOf(net.fem.tets.size() * 16), nodeOf(net.fem.tets.size() * 4);
+    for (std::size_t e = 0; e < net.fem.tets.size(); ++e) {
+        for (std::size_t k = 0; k < 16; ++k) {
+            blockOf[16 * e + k] = s.tetBlocks[e][k];
+        }
+        for (std::size_t k = 0; k < 4; ++k) {
+            nodeOf[4 * e + k] = net.fem.tets[e][k];
+        }
+    }
+    invertLists(blockOf, std::uint32_t(s.system.val.size()), s.blockSources);
+    invertLists(nodeOf, std::uint32_t(net.x.size()), s.nodeCorners);
     s.dv.assign(net.x.size(), Vec3T<float>{});
     s.multigrid = AggregationMultigrid<float>{};
     s.pinnedWhenBuilt.clear();
@@ -539,6 +570,26 @@ void findFemPinnedBlocks(const SpringNetwork& net, FemSolver& s) {
         }
     }
     s.pinnedWhenBuilt = net.pinned;
+}
+
+/// Adds element e's share of one system block (k = 4 a + b: the slot of (b, a), which holds the
+/// transpose of A_ba, that is A_ab, as the kernels read a block's rows as its columns): c R K_ab R^T =
+/// c V [lambda q_a q_b^T + mu (g_a . g_b) I + mu q_b q_a^T], with q = R g.
+void addElementBlock(const SpringNetwork& net, const FemSolver& s, std::size_t e, std::size_t k, double c,
+                     Mat3& block) {
+    const FemElements& fem = net.fem;
+    const std::size_t ia = k / 4, ib = k % 4;
+    const Vec3& qa = s.elements[e].turned[ia];
+    const Vec3& qb = s.elements[e].turned[ib];
+    const double weight = fem.volume[e] * c;
+    const double a[3] = {qa.x, qa.y, qa.z}, b[3] = {qb.x, qb.y, qb.z};
+    const double diagonal = weight * fem.mu * dot(fem.gradients[e][ia], fem.gradients[e][ib]);
+    for (std::size_t r = 0; r < 3; ++r) {
+        for (std::size_t col = 0; col < 3; ++col) {
+            block.m[3 * r + col] +=
+                weight * (fem.lambda * a[r] * b[col] + fem.mu * b[r] * a[col]) + (r == col ? diagonal : 0.0);
+        }
+    }
 }
 
 /// Implicit Euler (see the header comment); f holds the external forces.
@@ -575,33 +626,20 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
             out.turned[k] = fromEigen(Eigen::Vector3d(el.r * toEigen(fem.gradients[e][k])));
         }
     });
-    for (std::size_t e = 0; e < fem.tets.size(); ++e) {
-        const auto& t = fem.tets[e];
-        const auto& g = fem.gradients[e];
-        const FemSolver::Element& el = s.elements[e];
-        for (std::size_t k = 0; k < 4; ++k) {
-            s.rhs[t[k]] += el.force[k] * h;
+    // each node gathers its corners' forces, each block its element blocks, in element order: the
+    // additions a scatter element after element makes, shared out over threads
+    pool.forEach(n, 2048, [&](std::size_t i) {
+        for (std::uint32_t k = s.nodeCorners.start[i]; k < s.nodeCorners.start[i + 1]; ++k) {
+            const std::uint32_t corner = s.nodeCorners.items[k];
+            s.rhs[i] += s.elements[corner / 4].force[corner % 4] * h;
         }
-        // the blocks R K_ab R^T = V [lambda q_a q_b^T + mu (g_a . g_b) I + mu q_b q_a^T]: the slot of
-        // (b, a) holds the transpose of A_ba, which is A_ab, as the kernels read a block's rows as its
-        // columns (block_kernels.h)
-        const double weight = fem.volume[e] * c;
-        for (std::size_t i = 0; i < 4; ++i) {
-            const double qa[3] = {el.turned[i].x, el.turned[i].y, el.turned[i].z};
-            for (std::size_t j = 0; j < 4; ++j) {
-                const double qb[3] = {el.turned[j].x, el.turned[j].y, el.turned[j].z};
-                Mat3& block = s.blocks[s.tetBlocks[e][4 * i + j]];
-                const double diagonal = weight * fem.mu * dot(g[i], g[j]);
-                for (std::size_t r = 0; r < 3; ++r) {
-                    for (std::size_t col = 0; col < 3; ++col) {
-                        block.m[3 * r + col] +=
-                            weight * (fem.lambda * qa[r] * qb[col] + fem.mu * qb[r] * qa[col]) +
-                            (r == col ? diagonal : 0.0);
-                    }
-                }
-            }
+    });
+    pool.forEach(s.blocks.size(), 4096, [&](std::size_t block) {
+        for (std::uint32_t k = s.blockSources.start[block]; k < s.blockSources.start[block + 1]; ++k) {
+            const std::uint32_t source = s.blockSources.items[k];
+            addElementBlock(net, s, source / 16, source % 16, c, s.blocks[block]);
         }
-    }
+    });
     BlockMatrix<float>& a = s.system;
     for (std::size_t b = 0; b < a.val.size(); ++b) {
         a.val[b] = s.blocks[b].cast<float>();

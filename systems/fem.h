@@ -99,6 +99,12 @@ struct FemSolver {
         std::array<Vec3, 4> turned; ///< R g_a
     };
     std::vector<Element> elements;
+    /// Compressed lists: the entries of i are items[start[i] .. start[i + 1]).
+    struct Lists {
+        std::vector<std::uint32_t> start, items;
+    };
+    Lists blockSources; ///< per system block: the element blocks (16 e + 4 a + b) summed into it
+    Lists nodeCorners;  ///< per node: the element corners (4 e + a) at it
 };
 
 /// Elastic and damping forces of the elements added to f (f must hold the external forces).
