@@ -59,9 +59,15 @@ Matrix3 edges(const std::vector<Vec3>& x, const std::array<std::uint32_t, 4>& t)
 /// F = sum_a x_a g_a^T, and the same of velocities (the rate of F).
 Matrix3 gradientOf(const std::vector<Vec3>& x, const std::array<std::uint32_t, 4>& t,
                    const std::array<Vec3, 4>& g) {
-    Matrix3 f = Matrix3::Zero();
-    for (std::size_t a = 0; a < 4; ++a) {
-        f += toEigen(x[t[a]]) * toEigen(g[a]).transpose();
+    Matrix3 f;
+    const double gc[4][3] = {{g[0].x, g[0].y, g[0].z},
+                             {g[1].x, g[1].y, g[1].z},
+                             {g[2].x, g[2].y, g[2].z},
+                             {g[3].x, g[3].y, g[3].z}};
+    for (int j = 0; j < 3; ++j) {
+        f(0, j) = x[t[0]].x * gc[0][j] + x[t[1]].x * gc[1][j] + x[t[2]].x * gc[2][j] + x[t[3]].x * gc[3][j];
+        f(1, j) = x[t[0]].y * gc[0][j] + x[t[1]].y * gc[1][j] + x[t[2]].y * gc[2][j] + x[t[3]].y * gc[3][j];
+        f(2, j) = x[t[0]].z * gc[0][j] + x[t[1]].z * gc[1][j] + x[t[2]].z * gc[2][j] + x[t[3]].z * gc[3][j];
     }
     return f;
 }
@@ -424,11 +430,16 @@ Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch) {
             if (!(angle > 1e-12)) {
                 break;
             }
-            const Eigen::Quaterniond step(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
+            // a turn under 0.1 rad as the unit quaternion (1, t / 2) normalised: its angle is off by
+            // under 1e-4 of itself, which the next iteration (or step) takes out
+            const Eigen::Quaterniond step =
+                angle < 0.1
+                    ? Eigen::Quaterniond(1.0, 0.5 * turn.x(), 0.5 * turn.y(), 0.5 * turn.z()).normalized()
+                    : Eigen::Quaterniond(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
             r = bodyFrame ? r * step : step * r;
             r.normalize();
-            if (bodyFrame && angle < 1e-5) {
-                break; // Newton: what is left is of the order of this turn squared, under 1e-10 rad
+            if (bodyFrame && angle < 1e-3) {
+                break; // Newton: what is left is of the order of this turn squared, about 1e-6 rad
             }
         }
     }
@@ -583,11 +594,11 @@ void addElementBlock(const SpringNetwork& net, const FemSolver& s, std::size_t e
     const Vec3& qb = s.elements[e].turned[ib];
     const double weight = fem.volume[e] * c;
     const double a[3] = {qa.x, qa.y, qa.z}, b[3] = {qb.x, qb.y, qb.z};
-    const double diagonal = weight * fem.mu * dot(fem.gradients[e][ia], fem.gradients[e][ib]);
+    const double lambda = weight * fem.lambda, mu = weight * fem.mu;
+    const double diagonal = mu * dot(fem.gradients[e][ia], fem.gradients[e][ib]);
     for (std::size_t r = 0; r < 3; ++r) {
         for (std::size_t col = 0; col < 3; ++col) {
-            block.m[3 * r + col] +=
-                weight * (fem.lambda * a[r] * b[col] + fem.mu * b[r] * a[col]) + (r == col ? diagonal : 0.0);
+            block.m[3 * r + col] += lambda * a[r] * b[col] + mu * b[r] * a[col] + (r == col ? diagonal : 0.0);
         }
     }
 }
@@ -606,16 +617,9 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
     std::optional<ProfileStage> stage(std::in_place, env.profiler, "fem.assemble");
     const double alpha = fem.massDamping, beta = fem.stiffnessDamping;
     const double c = h * h + h * beta; // the stiffness's weight in the system
-    s.blocks.assign(s.system.val.size(), Mat3{});
-    s.rhs.assign(n, Vec3{});
-    for (std::size_t i = 0; i < n; ++i) {
-        const double m = 1.0 / net.invMass[i];
-        s.blocks[s.system.diag[i]] =
-            Mat3::identity(m * (1.0 + h * alpha) + h * massDamping(net, env, net.x[i]));
-        s.rhs[i] = (f[i] - net.v[i] * (alpha * m)) * h;
-    }
+    s.rhs.resize(n);
     // each element's rotation, forces and turned gradients q = R g, shared out over threads (each
-    // element writes its own); then summed into the nodes and blocks in element order, on one thread
+    // element writes its own)
     WorkerPool& pool = poolOr(env.pool);
     s.elements.resize(fem.tets.size());
     pool.forEach(fem.tets.size(), 1024, [&](std::size_t e) {
@@ -626,26 +630,33 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
             out.turned[k] = fromEigen(Eigen::Vector3d(el.r * toEigen(fem.gradients[e][k])));
         }
     });
-    // each node gathers its corners' forces, each block its element blocks, in element order: the
-    // additions a scatter element after element makes, shared out over threads
-    pool.forEach(n, 2048, [&](std::size_t i) {
-        for (std::uint32_t k = s.nodeCorners.start[i]; k < s.nodeCorners.start[i + 1]; ++k) {
-            const std::uint32_t corner = s.nodeCorners.items[k];
-            s.rhs[i] += s.elements[corner / 4].force[corner % 4] * h;
-        }
-    });
-    pool.forEach(s.blocks.size(), 4096, [&](std::size_t block) {
-        for (std::uint32_t k = s.blockSources.start[block]; k < s.blockSources.start[block + 1]; ++k) {
-            const std::uint32_t source = s.blockSources.items[k];
-            addElementBlock(net, s, source / 16, source % 16, c, s.blocks[block]);
-        }
-    });
+    // then each node gathers its corners' forces and each of its row's blocks its elements' shares, in
+    // element order (the additions a scatter element after element makes), in double, stored in float
     BlockMatrix<float>& a = s.system;
-    for (std::size_t b = 0; b < a.val.size(); ++b) {
-        a.val[b] = s.blocks[b].cast<float>();
-    }
-    for (std::uint32_t b : s.pinnedBlocks) {
-        a.val[b] = Mat3T<float>{};
+    pool.forChunks(n, 512, [&](std::size_t, std::size_t first, std::size_t end) {
+        for (std::size_t i = first; i < end; ++i) {
+            const double m = 1.0 / net.invMass[i];
+            Vec3 r = (f[i] - net.v[i] * (alpha * m)) * h;
+            for (std::uint32_t k = s.nodeCorners.start[i]; k < s.nodeCorners.start[i + 1]; ++k) {
+                const std::uint32_t corner = s.nodeCorners.items[k];
+                r += s.elements[corner / 4].force[corner % 4] * h;
+            }
+            s.rhs[i] = r;
+            for (std::uint32_t block = a.rowStart[i]; block < a.rowStart[i + 1]; ++block) {
+                Mat3 sum = a.col[block] == i
+                               ? Mat3::identity(m * (1.0 + h * alpha) + h * massDamping(net, env, net.x[i]))
+                               : Mat3{};
+                for (std::uint32_t k = s.blockSources.start[block]; k < s.blockSources.start[block + 1];
+                     ++k) {
+                    const std::uint32_t source = s.blockSources.items[k];
+                    addElementBlock(net, s, source / 16, source % 16, c, sum);
+                }
+                a.val[block] = sum.cast<float>();
+            }
+        }
+    });
+    for (std::uint32_t block : s.pinnedBlocks) {
+        a.val[block] = Mat3T<float>{};
     }
     s.rhsFloat.resize(n);
     for (std::size_t i = 0; i < n; ++i) {

@@ -65,8 +65,7 @@ TetMesh boxTets(const Vec3& centre, const std::array<double, 3>& size, const std
 bool boxFace(const std::string& face, const std::array<int, 3>& res, std::vector<std::uint32_t>& nodes);
 
 /// A ball of `radius` centred on `centre`: the tetrahedra of a box mesh of `cells` cells across whose
-/// centroids lie inside the sphere, then the surface nodes moved onto the sphere along their radius (by
-/// at most a quarter of a cell, which keeps every element positively oriented).
+/// centroids lie inside the sphere (its surface is stepped, as the cells' faces and diagonals make it).
 TetMesh sphereTets(const Vec3& centre, double radius, int cells);
 
 /// TetGen's .ele file and its .node beside it, the nodes moved by `offset`. Throws std::runtime_error
@@ -85,7 +84,6 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
 struct FemSolver {
     BlockMatrix<float> system;
     std::vector<std::array<std::uint32_t, 16>> tetBlocks; ///< per element: the block of (b, a) at 4 a + b
-    std::vector<Mat3> blocks;                             ///< the system's blocks, summed in double
     std::vector<Vec3> rhs;
     std::vector<Vec3T<float>> rhsFloat, dv; ///< dv: the last step's velocity change (the warm start)
     std::vector<std::uint32_t> pinnedBlocks;

@@ -307,9 +307,9 @@ std::array<int, 3> readCells(TableReader& r, std::array<double, 3> fallback) {
 /// memory cap before they are made. Box faces name pins; `faces` says whether they can.
 TetMesh readFemMesh(TableReader& r, const Vec3& centre, std::array<int, 3>& boxCells, bool& isBox) {
     const std::string mesh = r.string("mesh", "box");
-    // what a body and its solver hold: 1000 bytes a tetrahedron in all on a 12 x 12 x 12 box (nodes are a
+    // what a body and its solver hold: 800 bytes a tetrahedron in all on a 12 x 12 x 12 box (nodes are a
     // fifth of the tetrahedra there), BM_Fem10kImplicit's bytes_per_tet
-    constexpr std::size_t kBytesPerTet = 800, kBytesPerNode = 1000;
+    constexpr std::size_t kBytesPerTet = 650, kBytesPerNode = 800;
     auto charge = [&](std::size_t nodes, std::size_t tets) {
         r.charge("mesh", tets * kBytesPerTet + nodes * kBytesPerNode,
                  r.where() + " (" + std::to_string(nodes) + " nodes, " + std::to_string(tets) +
