@@ -298,7 +298,8 @@ void AggregationMultigrid<S>::factorCoarsest() {
         for (std::uint32_t b = c.rowStart[i]; b < c.rowStart[std::size_t(i) + 1]; ++b) {
             for (std::size_t r = 0; r < 3; ++r) {
                 for (std::size_t k = 0; k < 3; ++k) {
-                    m_cholesky[(3 * i + r) * d + 3 * c.col[b] + k] = double(c.val[b].m[3 * r + k]);
+                    // a block's rows are read as its columns, as the kernels do (linear_solver.h)
+                    m_cholesky[(3 * i + r) * d + 3 * c.col[b] + k] = double(c.val[b].m[3 * k + r]);
                 }
             }
         }

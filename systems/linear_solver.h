@@ -21,9 +21,13 @@
 // are coloured by blocks of kSmoothBlock consecutive rows instead, which keeps nearly the convergence of
 // sweeping row after row.
 //
-// Every block of these matrices is symmetric: a spring's block h kd uu^T + h^2 K is, the mass and damping
-// diagonal is, and sums of symmetric blocks (Galerkin products, pinned rows cleared on both sides) are.
-// The kernels rely on it (Mat3 A_ji = A_ij, rows = columns).
+// How blocks are read: the kernels apply a stored block's rows as its columns (A v = row0 v.x + row1 v.y +
+// row2 v.z, three broadcasts), and so does the dense factor of the coarsest level. For the springs it makes
+// no difference: every block is symmetric (a spring's h kd uu^T + h^2 K, the mass and damping diagonal,
+// and their sums). An fem body's off-diagonal blocks are not (systems/fem.h): it stores at (i, j) the
+// transpose of A_ij, which the matrix's symmetry makes A_ji, so that read as columns it applies A_ij; sums
+// of such blocks (the Galerkin products) keep the convention. The double kernels (plain Mat3T products)
+// read rows as rows, so an fem body solves in float only.
 
 #include "engine/parallel.h"
 #include "systems/block_sparse.h"
