@@ -78,9 +78,15 @@ Matrix3 stressOf(const Matrix3& grad, double lambda, double mu) {
     return lambda * e.trace() * Matrix3::Identity() + 2.0 * mu * e;
 }
 
-std::string nodesOf(const std::array<std::uint32_t, 4>& t) {
-    return std::to_string(t[0]) + ", " + std::to_string(t[1]) + ", " + std::to_string(t[2]) + ", " +
-           std::to_string(t[3]);
+/// "element 12 (nodes 3, 4, 9, 10)", numbered as the mesh's files number them, after "file:line: " for
+/// a mesh read from files.
+std::string elementName(const TetMesh& mesh, std::size_t e) {
+    const auto& t = mesh.tets[e];
+    const std::uint32_t base = mesh.firstNode;
+    std::string where = mesh.file.empty() ? "" : mesh.file + ":" + std::to_string(mesh.lines[e]) + ": ";
+    return where + "element " + std::to_string(e + base) + " (nodes " + std::to_string(t[0] + base) + ", " +
+           std::to_string(t[1] + base) + ", " + std::to_string(t[2] + base) + ", " +
+           std::to_string(t[3] + base) + ")";
 }
 
 /// The faces that belong to one element only, each turned so that its normal points away from the
@@ -242,6 +248,7 @@ TetMesh readTetGen(const std::filesystem::path& ele, const Vec3& offset, std::si
                                  ele.string() + "')");
     }
     TetMesh mesh;
+    mesh.file = ele.string();
     auto header = nodes.next();
     long long count = -1, dim = -1, attributes = -1, markers = -1;
     if (!header || !(*header >> count >> dim >> attributes >> markers) || count < 4 || dim != 3 ||
@@ -267,6 +274,7 @@ TetMesh readTetGen(const std::filesystem::path& ele, const Vec3& offset, std::si
         }
         if (i == 0) {
             first = index;
+            mesh.firstNode = static_cast<std::uint32_t>(index == 1 ? 1 : 0);
             if (first != 0 && first != 1) {
                 nodes.fail("the first node is numbered " + std::to_string(index) +
                            "; TetGen numbers from 0 or 1");
@@ -317,6 +325,7 @@ TetMesh readTetGen(const std::filesystem::path& ele, const Vec3& offset, std::si
         // TetGen's orientation is ours: the fourth corner on the side the first three's edges turn
         // counter-clockwise about (a positive determinant of the edges from the first)
         mesh.tets.push_back(t);
+        mesh.lines.push_back(tets.number);
     }
     return mesh;
 }
@@ -347,13 +356,12 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
         const double volume = d.determinant() / 6.0;
         // a regular tetrahedron of edge l has volume l^3 / (6 sqrt 2); a thousandth of that is a sliver
         if (!(std::abs(volume) > 1e-4 * longest * longest * longest)) {
-            throw std::invalid_argument("element " + std::to_string(e) + " (nodes " + nodesOf(t) +
-                                        ") is degenerate: its volume " + std::to_string(volume) +
-                                        " m^3 is nearly zero for its size");
+            throw std::invalid_argument(elementName(mesh, e) + " is degenerate: its volume " +
+                                        std::to_string(volume) + " m^3 is nearly zero for its size");
         }
         if (volume < 0.0) {
-            throw std::invalid_argument("element " + std::to_string(e) + " (nodes " + nodesOf(t) +
-                                        ") is inverted at rest: its corners are listed the other way round "
+            throw std::invalid_argument(elementName(mesh, e) +
+                                        " is inverted at rest: its corners are listed the other way round "
                                         "from the mesh's other elements");
         }
         const Matrix3 inverse = d.inverse();
@@ -372,7 +380,9 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
     net.invMass.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         if (!(mass[i] > 0.0)) {
-            throw std::invalid_argument("node " + std::to_string(i) + " belongs to no element");
+            throw std::invalid_argument((mesh.file.empty() ? "" : mesh.file + ": ") + "node " +
+                                        std::to_string(i + mesh.firstNode) +
+                                        " belongs to no element (make the mesh with tetgen's -j)");
         }
         net.invMass[i] = 1.0 / mass[i];
     }
@@ -389,59 +399,82 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
     return net;
 }
 
+namespace {
+
+/// The rotation of F from its SVD, with a reflection moved onto the smallest singular value (Irving et al.
+/// 2004), so that it is a proper rotation however F is turned or inverted.
+Eigen::Quaterniond svdRotation(const Matrix3& f) {
+    Eigen::JacobiSVD<Matrix3> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Matrix3 u = svd.matrixU();
+    Matrix3 v = svd.matrixV();
+    if (u.determinant() < 0.0) {
+        u.col(2) = -u.col(2);
+    }
+    if (v.determinant() < 0.0) {
+        v.col(2) = -v.col(2);
+    }
+    return Eigen::Quaterniond(Matrix3(u * v.transpose()));
+}
+
+/// Solves G t = w for a symmetric 3x3 G by its adjugate; false unless G is clearly positive definite: its
+/// leading minors (Sylvester's test) above least, least^2 and least^3.
+bool solvePositive(const Matrix3& g, const Eigen::Vector3d& w, double least, Eigen::Vector3d& t) {
+    const double c00 = g(1, 1) * g(2, 2) - g(1, 2) * g(2, 1);
+    const double c01 = g(1, 2) * g(2, 0) - g(1, 0) * g(2, 2);
+    const double c02 = g(1, 0) * g(2, 1) - g(1, 1) * g(2, 0);
+    const double minor2 = g(0, 0) * g(1, 1) - g(0, 1) * g(1, 0);
+    const double det = g(0, 0) * c00 + g(0, 1) * c01 + g(0, 2) * c02;
+    if (!(g(0, 0) > least) || !(minor2 > least * least) || !(det > least * least * least)) {
+        return false;
+    }
+    const double c11 = g(0, 0) * g(2, 2) - g(0, 2) * g(2, 0);
+    const double c12 = g(0, 1) * g(2, 0) - g(0, 0) * g(2, 1);
+    const double c22 = minor2;
+    const double inv = 1.0 / det;
+    // G is symmetric, so is its adjugate
+    t.x() = (c00 * w.x() + c01 * w.y() + c02 * w.z()) * inv;
+    t.y() = (c01 * w.x() + c11 * w.y() + c12 * w.z()) * inv;
+    t.z() = (c02 * w.x() + c12 * w.y() + c22 * w.z()) * inv;
+    return true;
+}
+
+} // namespace
+
 Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch) {
     const Matrix3 f = toEigen(fm);
     Eigen::Quaterniond r(q.w, q.x, q.y, q.z);
-    if (fromScratch || !(f.determinant() > 0.0)) {
-        // the SVD, with a reflection moved onto the smallest singular value (Irving et al. 2004)
-        Eigen::JacobiSVD<Matrix3> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-        Matrix3 u = svd.matrixU();
-        Matrix3 v = svd.matrixV();
-        if (u.determinant() < 0.0) {
-            u.col(2) = -u.col(2);
+    // Newton's method on the condition that R^T F be symmetric, from last step's R: with M = R^T F and
+    // S = sym(M), the turn t that symmetrises R exp([t])'s M to first order solves (tr(S) I - S) t =
+    // axial(M - M^T); quadratic, so one or two iterations a step. The SVD instead on the first step, for an
+    // inverted element, where tr(S) I - S is not clearly positive definite (an element nearly flat, or R
+    // more than a quarter turn off, where Newton could settle on R turned half round) and where Newton
+    // does not settle in 8 iterations
+    bool newton = !fromScratch && f.determinant() > 0.0;
+    for (int it = 0; newton; ++it) {
+        const Matrix3 m = r.toRotationMatrix().transpose() * f;
+        const Eigen::Vector3d w(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
+        const Matrix3 sym = 0.5 * (m + m.transpose());
+        Eigen::Vector3d turn;
+        if (!solvePositive(sym.trace() * Matrix3::Identity() - sym, w, 1e-6 * sym.trace(), turn) || it == 8) {
+            newton = false;
+            break;
         }
-        if (v.determinant() < 0.0) {
-            v.col(2) = -v.col(2);
+        const double angle = turn.norm();
+        if (!(angle > 1e-12)) {
+            break;
         }
-        r = Eigen::Quaterniond(Matrix3(u * v.transpose()));
-    } else {
-        // Newton's method on the condition that R^T F be symmetric, from last step's R: with M = R^T F and
-        // S = sym(M), the turn t that symmetrises R exp([t])'s M to first order solves
-        // (tr(S) I - S) t = axial(M - M^T); quadratic, so one or two steps a step. Where tr(S) I - S is
-        // near singular (an element nearly flat), the step of Mueller et al. 2016 instead, t = sum_i
-        // r_i x f_i / |sum_i r_i . f_i| in the world frame, which always makes progress
-        for (int it = 0; it < 16; ++it) {
-            const Matrix3 rm = r.toRotationMatrix();
-            const Matrix3 m = rm.transpose() * f;
-            const Eigen::Vector3d w(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
-            const Matrix3 sym = 0.5 * (m + m.transpose());
-            const Matrix3 g = sym.trace() * Matrix3::Identity() - sym;
-            const double scale = std::abs(sym.trace()) + 1e-300;
-            Eigen::Vector3d turn;
-            bool bodyFrame = true;
-            if (g.determinant() > 1e-6 * scale * scale * scale) {
-                turn = g.inverse() * w;
-            } else {
-                turn = (rm.col(0).cross(f.col(0)) + rm.col(1).cross(f.col(1)) + rm.col(2).cross(f.col(2))) /
-                       scale;
-                bodyFrame = false;
-            }
-            const double angle = turn.norm();
-            if (!(angle > 1e-12)) {
-                break;
-            }
-            // a turn under 0.1 rad as the unit quaternion (1, t / 2) normalised: its angle is off by
-            // under 1e-4 of itself, which the next iteration (or step) takes out
-            const Eigen::Quaterniond step =
-                angle < 0.1
-                    ? Eigen::Quaterniond(1.0, 0.5 * turn.x(), 0.5 * turn.y(), 0.5 * turn.z()).normalized()
-                    : Eigen::Quaterniond(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
-            r = bodyFrame ? r * step : step * r;
-            r.normalize();
-            if (bodyFrame && angle < 1e-3) {
-                break; // Newton: what is left is of the order of this turn squared, about 1e-6 rad
-            }
+        // a turn under 0.1 rad as the unit quaternion (1, t / 2) normalised: its angle is off by under
+        // 1e-4 of itself, which the next iteration (or step) takes out
+        const Eigen::Quaterniond step =
+            angle < 0.1 ? Eigen::Quaterniond(1.0, 0.5 * turn.x(), 0.5 * turn.y(), 0.5 * turn.z()).normalized()
+                        : Eigen::Quaterniond(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
+        r = (r * step).normalized();
+        if (angle < 1e-3) {
+            break; // what is left is of the order of this turn squared, about 1e-6 rad
         }
+    }
+    if (!newton) {
+        r = svdRotation(f);
     }
     r.normalize();
     q = {r.x(), r.y(), r.z(), r.w()};

@@ -44,6 +44,11 @@ inline constexpr Quat kNoRotation{0.0, 0.0, 0.0, 0.0};
 struct TetMesh {
     std::vector<Vec3> nodes;
     std::vector<std::array<std::uint32_t, 4>> tets;
+    // where a mesh read from files came from, for messages: the .ele file, each element's line in it,
+    // and the number the files give the first node (0 or 1)
+    std::string file;
+    std::vector<int> lines;
+    std::uint32_t firstNode = 0;
 };
 
 /// The material of an fem body.

@@ -153,6 +153,9 @@ void registerGrabEvents(Catalog& catalog) {
              // about 400 B a mass and 270 B a spring more, which a network loaded explicit may take only
              // while it is small
              const SpringNetwork& net = w.get<SpringNetwork>(e);
+             if (net.kind == NetworkKind::Fem && ev.value[0] != 3 && ev.value[0] != 4) {
+                 return std::string("an fem body is advanced by 3 symplectic_euler or 4 implicit_euler");
+             }
              const double extra = double(net.x.size()) * 400.0 + double(net.links.size()) * 270.0;
              if (ev.value[0] == 4 && !net.implicitCharged && extra > kMaxUnchargedBytes) {
                  return "switching to implicit_euler would take about " +

@@ -269,13 +269,13 @@ void refuseStiffAnchors(TableReader& r, World& world, Entity body, double mass, 
             }
         }
         // an fem body's elements: the block K_ab between a held and a free corner is at most
-        // V (lambda + 2 mu) |g_a| |g_b| in norm (systems/fem.h), its damping beta times that
+        // V (|lambda| + 2 mu) |g_a| |g_b| in norm (systems/fem.h), its damping beta times that
         const FemElements& fem = net.fem;
         for (std::size_t e = 0; any && e < fem.tets.size(); ++e) {
             for (std::size_t a = 0; a < 4; ++a) {
                 for (std::size_t b = 0; b < 4; ++b) {
                     if (held[fem.tets[e][a]] && !held[fem.tets[e][b]]) {
-                        const double kab = fem.volume[e] * (fem.lambda + 2.0 * fem.mu) *
+                        const double kab = fem.volume[e] * (std::abs(fem.lambda) + 2.0 * fem.mu) *
                                            length(fem.gradients[e][a]) * length(fem.gradients[e][b]);
                         k += kab;
                         kd += fem.stiffnessDamping * kab;

@@ -721,6 +721,10 @@ std::optional<std::string> sameShape(const SpringNetwork& b, const SpringNetwork
     if (b.selfCollision != a.selfCollision) {
         return std::string("cloth.self_collision cannot change during a run");
     }
+    if (b.fem.tets != a.fem.tets || b.fem.volume != a.fem.volume) {
+        return std::string("an fem body's mesh cannot change during a run (mesh, size, radius, resolution); "
+                           "its material (young, poisson, density, damping, mass_damping) and pins can");
+    }
     return std::nullopt;
 }
 
@@ -738,6 +742,10 @@ void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw
         takeChanged(net.links[k].k, was.links[k].k, now.links[k].k);
         takeChanged(net.links[k].kd, was.links[k].kd, now.links[k].kd);
     }
+    takeChanged(net.fem.lambda, was.fem.lambda, now.fem.lambda);
+    takeChanged(net.fem.mu, was.fem.mu, now.fem.mu);
+    takeChanged(net.fem.stiffnessDamping, was.fem.stiffnessDamping, now.fem.stiffnessDamping);
+    takeChanged(net.fem.massDamping, was.fem.massDamping, now.fem.massDamping);
     takeChanged(net.drag, was.drag, now.drag);
     takeChanged(net.integrator, was.integrator, now.integrator);
     takeChanged(net.thickness, was.thickness, now.thickness);

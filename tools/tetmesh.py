@@ -103,8 +103,9 @@ def main():
     with tempfile.TemporaryDirectory() as work:
         off = os.path.join(work, "surface.off")
         write_off(off, vertices, triangles)
-        # -p: tetrahedralize the surface; -q: quality; -a: volume bound; -Q: quiet
-        command = ["tetgen", f"-pq{args.quality}a{args.max_volume}Q", off]
+        # -p: tetrahedralize the surface; -q: quality; -a: volume bound; -j: leave out vertices no
+        # tetrahedron uses (the loader refuses them); -Q: quiet
+        command = ["tetgen", f"-pq{args.quality}a{args.max_volume}jQ", off]
         result = subprocess.run(command, capture_output=True, text=True)
         if result.returncode != 0 or not os.path.exists(os.path.join(work, "surface.1.ele")):
             sys.exit(f"tetgen failed on {args.obj}:\n{result.stdout}{result.stderr}")
