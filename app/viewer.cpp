@@ -642,18 +642,24 @@ void Viewer::handleKeys() {
             World& world = m_sim->world();
             std::string name = m_selected;
             int current = -1;
+            bool fem = false;
             world.view<const Name, const SpringNetwork>().each(
                 [&](Entity, const Name& n, const SpringNetwork& net) {
                     if ((name.empty() && current < 0) || n.value == name) {
                         name = n.value;
                         current = static_cast<int>(net.integrator);
+                        fem = net.kind == NetworkKind::Fem;
                     }
                 });
             if (current < 0) {
                 m_status = "no spring network to change the integrator of";
                 break;
             }
-            const int next = (current + 1) % kIntegratorCount;
+            // an fem body has two: symplectic and implicit Euler
+            const auto symplectic = static_cast<int>(Integrator::SymplecticEuler);
+            const auto implicit = static_cast<int>(Integrator::ImplicitEuler);
+            const int next =
+                fem ? (current == implicit ? symplectic : implicit) : (current + 1) % kIntegratorCount;
             if (addEvent(name, "set_integrator", {double(next)}, {})) {
                 m_status = "'" + name + "' now integrates with " +
                            std::string(integratorName(static_cast<Integrator>(next)));

@@ -514,14 +514,24 @@ ElementState element(const SpringNetwork& net, const std::vector<Vec3>& x, const
 
 } // namespace
 
-Vec3 elementForceOn(const SpringNetwork& net, std::uint32_t node) {
+Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint32_t node) {
     const FemElements& fem = net.fem;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (std::size_t e = 0; e < fem.tets.size(); ++e) {
-        for (std::size_t k = 0; k < 4; ++k) {
-            if (fem.tets[e][k] == node) {
-                Quat q = fem.rotation[e]; // a copy: the state is the step's, not this query's
-                sum += element(net, net.x, net.v, e, q, fem.stiffnessDamping).force[k];
+    auto add = [&](std::size_t e, std::size_t k) {
+        Quat q = fem.rotation[e]; // a copy: the state is the step's, not this query's
+        sum += element(net, net.x, net.v, e, q, fem.stiffnessDamping).force[k];
+    };
+    if (solver.nodeCorners.start.size() == net.x.size() + 1) {
+        // implicit Euler's lists: the node's corners, in element order
+        for (std::uint32_t k = solver.nodeCorners.start[node]; k < solver.nodeCorners.start[node + 1]; ++k) {
+            add(solver.nodeCorners.items[k] / 4, solver.nodeCorners.items[k] % 4);
+        }
+    } else {
+        for (std::size_t e = 0; e < fem.tets.size(); ++e) {
+            for (std::size_t k = 0; k < 4; ++k) {
+                if (fem.tets[e][k] == node) {
+                    add(e, k);
+                }
             }
         }
     }

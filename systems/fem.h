@@ -110,12 +110,13 @@ struct FemSolver {
     Lists nodeCorners;  ///< per node: the element corners (4 e + a) at it
 };
 
+/// The elements' elastic and damping force on one node, at the network's state (for an anchor's body);
+/// through the solver's lists of each node's corners where implicit Euler has made them.
+Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint32_t node);
+
 /// Elastic and damping forces of the elements added to f (f must hold the external forces).
 void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                       std::vector<Vec3>& f, std::vector<Mat3>& rotations, std::vector<Quat>& rotationState);
-
-/// The elements' elastic and damping force on one node, at the network's state (for an anchor's body).
-Vec3 elementForceOn(const SpringNetwork& net, std::uint32_t node);
 
 /// One step of an fem body by its integrator (symplectic or implicit Euler).
 SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, ForceIncidence& incidence,

@@ -752,10 +752,21 @@ void renderWorld(World& world, const StepContext& ctx) {
             return; // drawn as a surface
         }
         const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions, pool);
-        for (const SpringLink& s : net.links) {
-            for (std::uint32_t i : {s.a, s.b}) {
+        auto line = [&](std::uint32_t a, std::uint32_t b) {
+            for (std::uint32_t i : {a, b}) {
                 r.flat.push_back(
                     {float(x[i].x), float(x[i].y), float(x[i].z), 0.2f, 0.2f, 0.22f, 1.0f, 0.0f});
+            }
+        };
+        for (const SpringLink& s : net.links) {
+            line(s.a, s.b);
+        }
+        if (net.links.empty()) {
+            // an fem body has no springs: the edges of its surface (each shared edge drawn twice)
+            for (const auto& t : net.triangles) {
+                line(t[0], t[1]);
+                line(t[1], t[2]);
+                line(t[2], t[0]);
             }
         }
         drawLines(r);

@@ -609,7 +609,8 @@ void followAnchors(World& world, SpringNetwork& net) {
 
 /// What the springs and gravity pull each anchored mass with, handed to its body as an impulse over the
 /// step (the mass's own inertia is left out: it moves with the body).
-void pullAnchors(World& world, SpringNetwork& net, const Environment& env, double dt) {
+void pullAnchors(World& world, SpringNetwork& net, const SpringWorkspace& work, const Environment& env,
+                 double dt) {
     for (const SpringAnchor& a : net.anchors) {
         // the integrators leave a pinned mass where it was, at rest; a held one moves with its body, as the
         // implicit solve assumed it would (its right-hand side carries the pinned mass's velocity): leaving
@@ -633,7 +634,7 @@ void pullAnchors(World& world, SpringNetwork& net, const Environment& env, doubl
             f += s.a == a.mass ? onA : -onA;
         }
         if (net.kind == NetworkKind::Fem) {
-            f += elementForceOn(net, a.mass);
+            f += elementForceOn(net, work.fem, a.mass);
         }
         push(world, a, h.at, f, dt); // the lever from where the body is now, to the point where it is now
     }
@@ -693,7 +694,7 @@ void integrateSprings(World& world, const StepContext& ctx) {
     });
     for (NetworkStep& s : steps) {
         if (!s.threw) {
-            pullAnchors(world, *s.net, env, ctx.dt);
+            pullAnchors(world, *s.net, *s.work, env, ctx.dt);
             if (blewUp(*s.net)) {
                 s.problem = "its state became non-finite or faster than 10 km/s";
             }
