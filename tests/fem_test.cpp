@@ -406,3 +406,52 @@ TEST(Fem, SetEventsChangeTheMaterialNotTheMesh) {
 
 } // namespace
 } // namespace tumble
+
+namespace tumble {
+namespace {
+
+// The events act on an fem body's nodes as on any network's masses: an impulse of J gives the body a
+// momentum J, a pin holds a node where it is, and the mouse spring pulls a node (and the body with it)
+// towards the pointer. Seen to fail with the events' check limited to the springs' shapes (refused).
+TEST(Fem, ImpulsePinAndGrabActOnItsNodes) {
+    const std::string scene =
+        "[scene]\nname = \"e\"\ngravity = [0.0, 0.0, 0.0]\n[[entity]]\nname = \"jelly\"\n"
+        "[entity.fem]\nsize = [0.2, 0.2, 0.2]\nresolution = [2, 2, 2]\ndensity = 1000.0\n";
+    auto momentum = [](const SpringNetwork& net) {
+        Vec3 p;
+        for (std::size_t i = 0; i < net.x.size(); ++i) {
+            p += net.v[i] * (1.0 / net.invMass[i]);
+        }
+        return p;
+    };
+    auto kicked =
+        test::makeSimulation(scene + "[[event]]\nframe = 1\nentity = \"jelly\"\naction = \"impulse\"\n"
+                                     "value = [0.8, 0.0, 0.0]\n");
+    for (int frame = 0; frame < 5; ++frame) {
+        kicked->runFrame();
+    }
+    EXPECT_NEAR(momentum(test::component<SpringNetwork>(*kicked, "jelly")).x, 0.8, 1e-9);
+
+    auto pinned = test::makeSimulation(
+        scene + "[[event]]\nframe = 1\nentity = \"jelly\"\naction = \"pin\"\nvalue = [0]\n"
+                "[[event]]\nframe = 1\nentity = \"jelly\"\naction = \"impulse\"\n"
+                "value = [0.8, 0.0, 0.0]\n");
+    const Vec3 start = test::component<SpringNetwork>(*pinned, "jelly").x[0];
+    for (int frame = 0; frame < 30; ++frame) {
+        pinned->runFrame();
+    }
+    const SpringNetwork& held = test::component<SpringNetwork>(*pinned, "jelly");
+    EXPECT_EQ(held.x[0], start);
+    EXPECT_GT(held.x[26].x, start.x + 0.2 + 0.01); // the far corner swung on past the pin
+
+    auto grabbed =
+        test::makeSimulation(scene + "[[event]]\nframe = 1\nentity = \"jelly\"\naction = \"grab\"\n"
+                                     "value = 0\nposition = [0.0, 1.0, 0.0]\n");
+    for (int frame = 0; frame < 120; ++frame) {
+        grabbed->runFrame();
+    }
+    EXPECT_GT(test::component<SpringNetwork>(*grabbed, "jelly").x[0].y, 0.5);
+}
+
+} // namespace
+} // namespace tumble
