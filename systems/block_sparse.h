@@ -175,6 +175,23 @@ struct BlockMatrix {
     /// y = A x, for a matrix whose blocks are all symmetric (the solver's are); a range of rows:
     /// kernels::multiplyRows (block_kernels.h)
     void multiply(const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y) const;
+    /// The off-diagonal blocks in the rows of the fixed rows and in their columns, each (i, j) followed by
+    /// its (j, i): what constraint filtering clears (a fixed row's diagonal becomes the identity).
+    std::vector<std::uint32_t> fixedBlocks(const std::vector<std::uint8_t>& fixed) const {
+        std::vector<std::uint32_t> out;
+        for (std::uint32_t i = 0; i < n; ++i) {
+            if (!fixed[i]) {
+                continue;
+            }
+            for (std::uint32_t b = rowStart[i]; b < rowStart[std::size_t(i) + 1]; ++b) {
+                if (col[b] != i) {
+                    out.push_back(b);
+                    out.push_back(find(col[b], i));
+                }
+            }
+        }
+        return out;
+    }
 };
 
 extern template struct Mat3T<float>;

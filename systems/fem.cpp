@@ -610,19 +610,7 @@ void buildFemPattern(const SpringNetwork& net, FemSolver& s) {
 }
 
 void findFemPinnedBlocks(const SpringNetwork& net, FemSolver& s) {
-    const BlockMatrix<float>& a = s.system;
-    s.pinnedBlocks.clear();
-    for (std::uint32_t i = 0; i < a.n; ++i) {
-        if (!net.pinned[i]) {
-            continue;
-        }
-        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
-            if (a.col[b] != i) {
-                s.pinnedBlocks.push_back(b);
-                s.pinnedBlocks.push_back(a.find(a.col[b], i));
-            }
-        }
-    }
+    s.pinnedBlocks = s.system.fixedBlocks(net.pinned);
     s.pinnedWhenBuilt = net.pinned;
 }
 

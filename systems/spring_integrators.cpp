@@ -107,19 +107,7 @@ void buildPattern(const SpringNetwork& net, ImplicitSolver<S>& w) {
 /// change.
 template <class S>
 void findPinnedBlocks(const SpringNetwork& net, ImplicitSolver<S>& w) {
-    const BlockMatrix<S>& a = w.system;
-    w.pinnedBlocks.clear();
-    for (std::uint32_t i = 0; i < a.n; ++i) {
-        if (!net.pinned[i]) {
-            continue;
-        }
-        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
-            if (a.col[b] != i) {
-                w.pinnedBlocks.push_back(b);
-                w.pinnedBlocks.push_back(a.find(a.col[b], i));
-            }
-        }
-    }
+    w.pinnedBlocks = w.system.fixedBlocks(net.pinned);
     w.pinnedWhenBuilt = net.pinned;
 }
 
