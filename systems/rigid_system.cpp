@@ -316,8 +316,9 @@ void loadAnchor(TableReader& r, World& world, const EntityLookup& lookup, double
     const toml::node* listed = r.node("mass");
     if (listed && listed->is_array()) {
         for (const toml::node& item : *r.array("mass", net->x.size())) {
-            const auto i = item.value<std::int64_t>();
-            if (!item.is_integer() || *i < 0 || static_cast<std::size_t>(*i) >= net->x.size()) {
+            // a float is refused before it is read as an integer (1e308 does not fit one)
+            const auto i = item.is_integer() ? item.value<std::int64_t>() : std::nullopt;
+            if (!i || *i < 0 || static_cast<std::size_t>(*i) >= net->x.size()) {
                 r.failAt(item, "'mass' lists mass indices, each a whole number in [0, " +
                                    std::to_string(net->x.size() - 1) + "]");
             }

@@ -57,8 +57,9 @@ readPins(TableReader& r, std::size_t masses, const std::string& fallback,
     if (n && n->is_array()) {
         const toml::array* list = r.array("pin", masses);
         for (const toml::node& item : *list) {
-            const auto i = item.value<std::int64_t>();
-            if (!item.is_integer() || *i < 0 || static_cast<std::size_t>(*i) >= masses) {
+            // a float is refused before it is read as an integer (1e308 does not fit one)
+            const auto i = item.is_integer() ? item.value<std::int64_t>() : std::nullopt;
+            if (!i || *i < 0 || static_cast<std::size_t>(*i) >= masses) {
                 r.failAt(item, "'pin' in " + r.where() + " lists mass indices, each a whole number in [0, " +
                                    std::to_string(masses - 1) + "]");
             }
