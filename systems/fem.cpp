@@ -483,7 +483,6 @@ Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch) {
 
 namespace {
 
-/// Element e's rotation this step, its state updated.
 /// One element this step: its deformation gradient, rotation and corner forces.
 struct ElementState {
     Matrix3 f, r;
@@ -539,12 +538,10 @@ Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint
 }
 
 void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                      std::vector<Vec3>& f, std::vector<Mat3>& rotations, std::vector<Quat>& rotationState) {
+                      std::vector<Vec3>& f, std::vector<Quat>& rotationState) {
     const FemElements& fem = net.fem;
-    rotations.resize(fem.tets.size());
     for (std::size_t e = 0; e < fem.tets.size(); ++e) {
         const ElementState el = element(net, x, v, e, rotationState[e], fem.stiffnessDamping);
-        rotations[e] = fromEigen(el.r);
         for (std::size_t a = 0; a < 4; ++a) {
             f[fem.tets[e][a]] += fromEigen(el.force[a]);
         }
@@ -719,7 +716,7 @@ SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, 
     if (net.integrator == Integrator::ImplicitEuler) {
         return implicitFem(net, solver, f, env, h);
     }
-    addElementForces(net, net.x, net.v, f, solver.rotations, net.fem.rotation);
+    addElementForces(net, net.x, net.v, f, net.fem.rotation);
     for (std::size_t i = 0; i < net.x.size(); ++i) {
         if (!net.pinned[i]) {
             net.v[i] += f[i] * (net.invMass[i] * h);

@@ -95,7 +95,6 @@ struct FemSolver {
     std::vector<std::uint8_t> pinnedWhenBuilt;
     AggregationMultigrid<float> multigrid;
     PcgVectors<float> pcg;
-    std::vector<Mat3> rotations; ///< this step's R per element (symplectic Euler)
     /// What implicit Euler's assembly keeps of each element between its two passes
     struct Element {
         std::array<Vec3, 4> force;  ///< on each corner, with the stiffness's rate term
@@ -116,7 +115,7 @@ Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint
 
 /// Elastic and damping forces of the elements added to f (f must hold the external forces).
 void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                      std::vector<Vec3>& f, std::vector<Mat3>& rotations, std::vector<Quat>& rotationState);
+                      std::vector<Vec3>& f, std::vector<Quat>& rotationState);
 
 /// One step of an fem body by its integrator (symplectic or implicit Euler).
 SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, ForceIncidence& incidence,
