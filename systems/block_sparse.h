@@ -132,6 +132,15 @@ struct Mat3T {
                 m[6] * v.x + m[7] * v.y + m[8] * v.z};
     }
     S trace() const { return m[0] + m[4] + m[8]; }
+    Mat3T transposed() const {
+        Mat3T r;
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) {
+                r.m[3 * i + j] = m[3 * j + i];
+            }
+        }
+        return r;
+    }
     /// The inverse (the matrix must be invertible; used on SPD diagonal blocks).
     Mat3T inverse() const;
 };

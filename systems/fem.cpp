@@ -438,47 +438,73 @@ bool solvePositive(const Matrix3& g, const Eigen::Vector3d& w, double least, Eig
     return true;
 }
 
+/// A quaternion of a turn (axis times angle), not unit: under 0.1 rad (1, t / 2), whose angle is off by
+/// under 1e-4 of itself (which the next iteration, or step, takes out); larger turns exactly, at most 1 rad
+/// (Newton's step is only trusted that far).
+Eigen::Quaterniond turnQuaternion(const Eigen::Vector3d& t) {
+    if (t.squaredNorm() < 0.01) {
+        return Eigen::Quaterniond(1.0, 0.5 * t.x(), 0.5 * t.y(), 0.5 * t.z());
+    }
+    const double angle = t.norm();
+    return Eigen::Quaterniond(Eigen::AngleAxisd(std::min(angle, 1.0), t / angle));
+}
+
+/// The rotation of a quaternion that need not be unit (its length divides out): one division, where
+/// normalising first would take a square root as well.
+Matrix3 rotationMatrix(const Eigen::Quaterniond& q) {
+    const double s = 2.0 / q.squaredNorm();
+    const double x = q.x(), y = q.y(), z = q.z(), w = q.w();
+    Matrix3 r;
+    r << 1.0 - s * (y * y + z * z), s * (x * y - w * z), s * (x * z + w * y), //
+        s * (x * y + w * z), 1.0 - s * (x * x + z * z), s * (y * z - w * x),  //
+        s * (x * z - w * y), s * (y * z + w * x), 1.0 - s * (x * x + y * y);
+    return r;
+}
+
 } // namespace
 
-Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch) {
+Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch, const Vec3& turn) {
     const Matrix3 f = toEigen(fm);
-    Eigen::Quaterniond r(q.w, q.x, q.y, q.z);
-    // Newton's method on the condition that R^T F be symmetric, from last step's R: with M = R^T F and
-    // S = sym(M), the turn t that symmetrises R exp([t])'s M to first order solves (tr(S) I - S) t =
-    // axial(M - M^T); quadratic, so one or two iterations a step. The SVD instead on the first step, for an
-    // inverted element, where tr(S) I - S is not clearly positive definite (an element nearly flat, or R
-    // more than a quarter turn off, where Newton could settle on R turned half round) and where Newton
-    // does not settle in 8 iterations
+    // Newton's method on the condition that R^T F be symmetric, from last step's R turned by the turn
+    // expected since (the elements' spin times the step): with M = R^T F and S = sym(M), the turn t that
+    // symmetrises R exp([t])'s M to first order solves (tr(S) I - S) t = axial(M - M^T); quadratic, so
+    // about one iteration a step once the expected turn is taken. The SVD instead on the first step, for
+    // an inverted element, where tr(S) I - S is not clearly positive definite (an element nearly flat, or
+    // R more than a quarter turn off, where Newton could settle on R turned half round) and where Newton
+    // does not settle in 8 iterations. The quaternion is normalised once, at the end: its length grows
+    // by under 1e-3 an iteration
     bool newton = !fromScratch && f.determinant() > 0.0;
+    Eigen::Quaterniond r(q.w, q.x, q.y, q.z);
+    if (newton) {
+        r = turnQuaternion(toEigen(turn)) * r;
+    }
+    Matrix3 rm = rotationMatrix(r);
     for (int it = 0; newton; ++it) {
-        const Matrix3 m = r.toRotationMatrix().transpose() * f;
+        const Matrix3 m = rm.transpose() * f;
         const Eigen::Vector3d w(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
         const Matrix3 sym = 0.5 * (m + m.transpose());
-        Eigen::Vector3d turn;
-        if (!solvePositive(sym.trace() * Matrix3::Identity() - sym, w, 1e-6 * sym.trace(), turn) || it == 8) {
+        Eigen::Vector3d t;
+        if (!solvePositive(sym.trace() * Matrix3::Identity() - sym, w, 1e-6 * sym.trace(), t) || it == 8) {
             newton = false;
             break;
         }
-        const double angle = turn.norm();
-        if (!(angle > 1e-12)) {
+        const double squared = t.squaredNorm();
+        if (!(squared > 1e-24)) {
             break;
         }
-        // a turn under 0.1 rad as the unit quaternion (1, t / 2) normalised: its angle is off by under
-        // 1e-4 of itself, which the next iteration (or step) takes out
-        const Eigen::Quaterniond step =
-            angle < 0.1 ? Eigen::Quaterniond(1.0, 0.5 * turn.x(), 0.5 * turn.y(), 0.5 * turn.z()).normalized()
-                        : Eigen::Quaterniond(Eigen::AngleAxisd(std::min(angle, 1.0), turn / angle));
-        r = (r * step).normalized();
-        if (angle < 1e-3) {
-            break; // what is left is of the order of this turn squared, about 1e-6 rad
+        r = r * turnQuaternion(t);
+        rm = rotationMatrix(r);
+        if (squared < 1e-6) {
+            break; // what is left is of the order of this turn squared (under 1e-3 rad): about 1e-6 rad
         }
     }
     if (!newton) {
         r = svdRotation(f);
+        rm = rotationMatrix(r);
     }
     r.normalize();
     q = {r.x(), r.y(), r.z(), r.w()};
-    return fromEigen(r.toRotationMatrix());
+    return fromEigen(rm);
 }
 
 namespace {
@@ -491,22 +517,32 @@ struct ElementState {
 
 /// Element e at (x, v): its rotation (the state updated), and its forces on its corners, elastic at x
 /// plus the stiffness term at v scaled by `damping` (beta for the damping force; h + beta for implicit
-/// Euler's right-hand side, which holds -(h + beta) K v).
+/// Euler's right-hand side, which holds -(h + beta) K v). `since` is the time since the state's rotation
+/// was found (the step, as x moved by h v since; 0 where not known): the element's spin at v times it is
+/// the turn Newton starts from.
 ElementState element(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                     std::size_t e, Quat& state, double damping) {
+                     std::size_t e, Quat& state, double damping, double since) {
     const FemElements& fem = net.fem;
     const auto& t = fem.tets[e];
     const auto& g = fem.gradients[e];
     ElementState out;
     out.f = gradientOf(x, t, g);
+    const Matrix3 fRate = gradientOf(v, t, g);
     const bool fresh = state == kNoRotation;
-    out.r = toEigen(rotationOf(fromEigen(out.f), state, fresh));
-    const Matrix3 strain = out.r.transpose() * out.f - Matrix3::Identity();
-    const Matrix3 rate = out.r.transpose() * gradientOf(v, t, g);
-    const Matrix3 p =
-        out.r * (stressOf(strain, fem.lambda, fem.mu) + damping * stressOf(rate, fem.lambda, fem.mu));
+    Vec3 turn;
+    if (!fresh && since > 0.0) {
+        // the spin: the axial vector of the skew part of dF/dt F^-1, with R for F (small strain)
+        const Matrix3 b =
+            fRate * rotationMatrix(Eigen::Quaterniond(state.w, state.x, state.y, state.z)).transpose();
+        turn = Vec3{b(2, 1) - b(1, 2), b(0, 2) - b(2, 0), b(1, 0) - b(0, 1)} * (0.5 * since);
+    }
+    out.r = toEigen(rotationOf(fromEigen(out.f), state, fresh, turn));
+    // the stress is linear in the strain: that of the strain R^T F - I plus `damping` times that of its
+    // rate R^T dF/dt is that of their sum
+    const Matrix3 strain = out.r.transpose() * (out.f + damping * fRate) - Matrix3::Identity();
+    const Matrix3 p = -fem.volume[e] * (out.r * stressOf(strain, fem.lambda, fem.mu));
     for (std::size_t a = 0; a < 4; ++a) {
-        out.force[a] = -fem.volume[e] * (p * toEigen(g[a]));
+        out.force[a] = p * toEigen(g[a]);
     }
     return out;
 }
@@ -518,7 +554,7 @@ Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     auto add = [&](std::size_t e, std::size_t k) {
         Quat q = fem.rotation[e]; // a copy: the state is the step's, not this query's
-        sum += element(net, net.x, net.v, e, q, fem.stiffnessDamping).force[k];
+        sum += element(net, net.x, net.v, e, q, fem.stiffnessDamping, 0.0).force[k];
     };
     if (solver.nodeCorners.start.size() == net.x.size() + 1) {
         // implicit Euler's lists: the node's corners, in element order
@@ -538,10 +574,10 @@ Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint
 }
 
 void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                      std::vector<Vec3>& f, std::vector<Quat>& rotationState) {
+                      std::vector<Vec3>& f, std::vector<Quat>& rotationState, double since) {
     const FemElements& fem = net.fem;
     for (std::size_t e = 0; e < fem.tets.size(); ++e) {
-        const ElementState el = element(net, x, v, e, rotationState[e], fem.stiffnessDamping);
+        const ElementState el = element(net, x, v, e, rotationState[e], fem.stiffnessDamping, since);
         for (std::size_t a = 0; a < 4; ++a) {
             f[fem.tets[e][a]] += fromEigen(el.force[a]);
         }
@@ -580,26 +616,31 @@ void buildFemPattern(const SpringNetwork& net, FemSolver& s) {
         }
     }
     s.system = BlockMatrix<float>::fromPairs(std::uint32_t(net.x.size()), std::move(pairs));
-    s.tetBlocks.resize(net.fem.tets.size());
-    for (std::size_t e = 0; e < net.fem.tets.size(); ++e) {
-        const auto& t = net.fem.tets[e];
-        for (std::size_t a = 0; a < 4; ++a) {
-            for (std::size_t b = 0; b < 4; ++b) {
-                s.tetBlocks[e][4 * a + b] = s.system.find(t[b], t[a]);
-            }
-        }
-    }
-    // per block and per node, the element corners that add to it, ascending
+    const BlockMatrix<float>& a = s.system;
+    const auto blocks = std::uint32_t(a.val.size());
+    // per block on or right of the diagonal and per node, the element corners that add to it, ascending;
+    // a block left of the diagonal is the transpose of its mirror's (the system is symmetric)
     std::vector<std::uint32_t> blockOf(net.fem.tets.size() * 16), nodeOf(net.fem.tets.size() * 4);
     for (std::size_t e = 0; e < net.fem.tets.size(); ++e) {
+        const auto& t = net.fem.tets[e];
         for (std::size_t k = 0; k < 16; ++k) {
-            blockOf[16 * e + k] = s.tetBlocks[e][k];
+            // the slot of (t[b], t[a]) with k = 4 a + b; the blocks left of the diagonal to a last list
+            const std::uint32_t row = t[k % 4], col = t[k / 4];
+            blockOf[16 * e + k] = row <= col ? a.find(row, col) : blocks;
         }
         for (std::size_t k = 0; k < 4; ++k) {
-            nodeOf[4 * e + k] = net.fem.tets[e][k];
+            nodeOf[4 * e + k] = t[k];
         }
     }
-    invertLists(blockOf, std::uint32_t(s.system.val.size()), s.blockSources);
+    invertLists(blockOf, blocks + 1, s.blockSources);
+    s.blockSources.items.resize(s.blockSources.start[blocks]); // the last list's items are the last
+    s.blockSources.start.pop_back();
+    s.mirror.resize(blocks);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[i + 1]; ++b) {
+            s.mirror[b] = a.find(a.col[b], i);
+        }
+    }
     invertLists(nodeOf, std::uint32_t(net.x.size()), s.nodeCorners);
     s.dv.assign(net.x.size(), Vec3T<float>{});
     s.multigrid = AggregationMultigrid<float>{};
@@ -611,23 +652,33 @@ void findFemPinnedBlocks(const SpringNetwork& net, FemSolver& s) {
     s.pinnedWhenBuilt = net.pinned;
 }
 
-/// Adds element e's share of one system block (k = 4 a + b: the slot of (b, a), which holds the
-/// transpose of A_ba, that is A_ab, as the kernels read a block's rows as its columns): c R K_ab R^T =
-/// c V [lambda q_a q_b^T + mu (g_a . g_b) I + mu q_b q_a^T], with q = R g.
-void addElementBlock(const SpringNetwork& net, const FemSolver& s, std::size_t e, std::size_t k, double c,
-                     Mat3& block) {
-    const FemElements& fem = net.fem;
-    const std::size_t ia = k / 4, ib = k % 4;
-    const Vec3& qa = s.elements[e].turned[ia];
-    const Vec3& qb = s.elements[e].turned[ib];
-    const double weight = fem.volume[e] * c;
-    const double a[3] = {qa.x, qa.y, qa.z}, b[3] = {qb.x, qb.y, qb.z};
-    const double lambda = weight * fem.lambda, mu = weight * fem.mu;
-    const double diagonal = mu * dot(fem.gradients[e][ia], fem.gradients[e][ib]);
+/// Element e's share of one system block (k = 4 a + b: the slot of (b, a), which holds the transpose of
+/// A_ba, that is A_ab, as the kernels read a block's rows as its columns): c R K_ab R^T = c V [lambda q_a
+/// q_b^T + mu (q_a . q_b) I + mu q_b q_a^T], with q = R g (a rotation keeps g_a . g_b). The element keeps
+/// s = sqrt(c V mu) q, so that the block is ratio s_a s_b^T + (s_a . s_b) I + s_b s_a^T with ratio =
+/// lambda / mu, from its own 12 numbers alone. In float, on SSE registers (a row each): a block sums a few
+/// dozen shares in a fixed order and is stored in float, so double sums would only round later.
+struct BlockRows {
+    __m128 row[3];
+};
+void addElementBlock(const FemSolver& s, std::uint32_t source, __m128 ratio, BlockRows& block) {
+    const std::array<Vec3T<float>, 4>& scaled = s.elements[source / 16].turned;
+    const Vec3T<float>& sa = scaled[(source % 16) / 4];
+    const Vec3T<float>& sb = scaled[source % 4];
+    const __m128 a = sa.simd(), b = sb.simd();
+    const __m128 ra = _mm_mul_ps(ratio, a);
+    const float d = dot(sa, sb);
+    const __m128 diagonal[3] = {_mm_set_ps(0.0f, 0.0f, 0.0f, d), _mm_set_ps(0.0f, 0.0f, d, 0.0f),
+                                _mm_set_ps(0.0f, d, 0.0f, 0.0f)};
+    const __m128 raLane[3] = {_mm_shuffle_ps(ra, ra, 0x00), _mm_shuffle_ps(ra, ra, 0x55),
+                              _mm_shuffle_ps(ra, ra, 0xaa)};
+    const __m128 bLane[3] = {_mm_shuffle_ps(b, b, 0x00), _mm_shuffle_ps(b, b, 0x55),
+                             _mm_shuffle_ps(b, b, 0xaa)};
     for (std::size_t r = 0; r < 3; ++r) {
-        for (std::size_t col = 0; col < 3; ++col) {
-            block.m[3 * r + col] += lambda * a[r] * b[col] + mu * b[r] * a[col] + (r == col ? diagonal : 0.0);
-        }
+        // row r: ratio a_r b + b_r a + d e_r
+        const __m128 share =
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(raLane[r], b), _mm_mul_ps(bLane[r], a)), diagonal[r]);
+        block.row[r] = _mm_add_ps(block.row[r], share);
     }
 }
 
@@ -636,7 +687,7 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
                        double h) {
     const std::size_t n = net.x.size();
     const FemElements& fem = net.fem;
-    if (s.system.n != n || s.tetBlocks.size() != fem.tets.size()) {
+    if (s.system.n != n || s.nodeCorners.items.size() != 4 * fem.tets.size()) {
         buildFemPattern(net, s);
     }
     if (s.pinnedWhenBuilt != net.pinned) {
@@ -645,23 +696,27 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
     std::optional<ProfileStage> stage(std::in_place, env.profiler, "fem.assemble");
     const double alpha = fem.massDamping, beta = fem.stiffnessDamping;
     const double c = h * h + h * beta; // the stiffness's weight in the system
+    const __m128 ratio = _mm_set1_ps(float(fem.lambda / fem.mu));
     s.rhs.resize(n);
-    // each element's rotation, forces and turned gradients q = R g, shared out over threads (each
-    // element writes its own)
+    // each element's rotation, forces and scaled turned gradients s = sqrt(c V mu) R g (addElementBlock),
+    // shared out over threads (each element writes its own)
     WorkerPool& pool = poolOr(env.pool);
     s.elements.resize(fem.tets.size());
-    pool.forEach(fem.tets.size(), 1024, [&](std::size_t e) {
-        const ElementState el = element(net, net.x, net.v, e, net.fem.rotation[e], h + beta);
+    pool.forEach(fem.tets.size(), 256, [&](std::size_t e) {
+        const ElementState el = element(net, net.x, net.v, e, net.fem.rotation[e], h + beta, h);
         FemSolver::Element& out = s.elements[e];
+        const double scale = std::sqrt(c * fem.volume[e] * fem.mu);
         for (std::size_t k = 0; k < 4; ++k) {
             out.force[k] = fromEigen(el.force[k]);
-            out.turned[k] = fromEigen(Eigen::Vector3d(el.r * toEigen(fem.gradients[e][k])));
+            out.turned[k] =
+                Vec3T<float>::from(fromEigen(Eigen::Vector3d(scale * (el.r * toEigen(fem.gradients[e][k])))));
         }
     });
-    // then each node gathers its corners' forces and each of its row's blocks its elements' shares, in
-    // element order (the additions a scatter element after element makes), in double, stored in float
+    // then each node gathers its corners' forces (in double) and each block of its row on or right of the
+    // diagonal its elements' shares (in float), in element order (the additions a scatter element after
+    // element makes); the blocks left of the diagonal are their mirrors' transposes
     BlockMatrix<float>& a = s.system;
-    pool.forChunks(n, 512, [&](std::size_t, std::size_t first, std::size_t end) {
+    pool.forChunks(n, 128, [&](std::size_t, std::size_t first, std::size_t end) {
         for (std::size_t i = first; i < end; ++i) {
             const double m = 1.0 / net.invMass[i];
             Vec3 r = (f[i] - net.v[i] * (alpha * m)) * h;
@@ -670,16 +725,28 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
                 r += s.elements[corner / 4].force[corner % 4] * h;
             }
             s.rhs[i] = r;
-            for (std::uint32_t block = a.rowStart[i]; block < a.rowStart[i + 1]; ++block) {
-                Mat3 sum = a.col[block] == i
-                               ? Mat3::identity(m * (1.0 + h * alpha) + h * massDamping(net, env, net.x[i]))
-                               : Mat3{};
+            for (std::uint32_t block = a.diag[i]; block < a.rowStart[i + 1]; ++block) {
+                const float diagonal =
+                    a.col[block] == i ? float(m * (1.0 + h * alpha) + h * massDamping(net, env, net.x[i]))
+                                      : 0.0f;
+                BlockRows sum{{_mm_set_ps(0.0f, 0.0f, 0.0f, diagonal), _mm_set_ps(0.0f, 0.0f, diagonal, 0.0f),
+                               _mm_set_ps(0.0f, diagonal, 0.0f, 0.0f)}};
                 for (std::uint32_t k = s.blockSources.start[block]; k < s.blockSources.start[block + 1];
                      ++k) {
-                    const std::uint32_t source = s.blockSources.items[k];
-                    addElementBlock(net, s, source / 16, source % 16, c, sum);
+                    addElementBlock(s, s.blockSources.items[k], ratio, sum);
                 }
-                a.val[block] = sum.cast<float>();
+                // rows in order: each store's fourth lane (zero) is overwritten by the next row's first
+                float* out = a.val[block].m.data();
+                _mm_storeu_ps(out, sum.row[0]);
+                _mm_storeu_ps(out + 3, sum.row[1]);
+                _mm_storeu_ps(out + 6, sum.row[2]);
+            }
+        }
+    });
+    pool.forChunks(n, 128, [&](std::size_t, std::size_t first, std::size_t end) {
+        for (std::size_t i = first; i < end; ++i) {
+            for (std::uint32_t block = a.rowStart[i]; block < a.diag[i]; ++block) {
+                a.val[block] = a.val[s.mirror[block]].transposed();
             }
         }
     });
@@ -716,7 +783,7 @@ SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, 
     if (net.integrator == Integrator::ImplicitEuler) {
         return implicitFem(net, solver, f, env, h);
     }
-    addElementForces(net, net.x, net.v, f, net.fem.rotation);
+    addElementForces(net, net.x, net.v, f, net.fem.rotation, h);
     for (std::size_t i = 0; i < net.x.size(); ++i) {
         if (!net.pinned[i]) {
             net.v[i] += f[i] * (net.invMass[i] * h);

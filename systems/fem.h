@@ -17,13 +17,13 @@
 //   (M (1 + h alpha) + (h^2 + h beta) K) dv = h (f - (h + beta) K v - alpha M v)
 // goes to the same block conjugate gradients and multigrid as the springs (linear_solver.h).
 //
-// The rotation: the polar rotation of F, found by the iteration of Mueller, Bender, Chentanez and Macklin
-// 2016 ("A robust method to extract the rotational part of deformations") started from the element's
-// rotation of the step before, which is always a rotation and needs one or two iterations a step. The
-// first step (and an element whose F is not invertible) starts from an SVD of F with the inversion handled
-// as Irving, Teran and Fedkiw 2004 do: the sign of the smallest singular value's column is flipped so that
-// R is a proper rotation. An inverted element then reads as compressed beyond flat along one axis and is
-// pushed back out, never a NaN.
+// The rotation: the polar rotation of F, found by Newton's method on the symmetry of R^T F (rotationOf),
+// started from the element's rotation of the step before turned by its spin over the step (the skew part
+// of dF/dt R^T: the positions moved by h v since), which leaves about 1e-4 rad to take out, one iteration.
+// The first step (and an element whose F is not invertible, or where Newton does not settle) takes an SVD
+// of F with the inversion handled as Irving, Teran and Fedkiw 2004 do: the sign of the smallest singular
+// value's column is flipped so that R is a proper rotation. An inverted element then reads as compressed
+// beyond flat along one axis and is pushed back out, never a NaN.
 
 #include "components/spring_network.h"
 #include "systems/linear_solver.h"
@@ -88,7 +88,7 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
 /// The solver's state of an fem body, kept between steps (the pattern and warm start of implicit Euler).
 struct FemSolver {
     BlockMatrix<float> system;
-    std::vector<std::array<std::uint32_t, 16>> tetBlocks; ///< per element: the block of (b, a) at 4 a + b
+    std::vector<std::uint32_t> mirror; ///< per block (i, j): the block (j, i)
     std::vector<Vec3> rhs;
     std::vector<Vec3T<float>> rhsFloat, dv; ///< dv: the last step's velocity change (the warm start)
     std::vector<std::uint32_t> pinnedBlocks;
@@ -97,31 +97,35 @@ struct FemSolver {
     PcgVectors<float> pcg;
     /// What implicit Euler's assembly keeps of each element between its two passes
     struct Element {
-        std::array<Vec3, 4> force;  ///< on each corner, with the stiffness's rate term
-        std::array<Vec3, 4> turned; ///< R g_a
+        std::array<Vec3, 4> force;          ///< on each corner, with the stiffness's rate term
+        std::array<Vec3T<float>, 4> turned; ///< sqrt(c V mu) R g_a, c = h^2 + h beta (see addElementBlock)
     };
     std::vector<Element> elements;
     /// Compressed lists: the entries of i are items[start[i] .. start[i + 1]).
     struct Lists {
         std::vector<std::uint32_t> start, items;
     };
-    Lists blockSources; ///< per system block: the element blocks (16 e + 4 a + b) summed into it
-    Lists nodeCorners;  ///< per node: the element corners (4 e + a) at it
+    /// per system block on or right of the diagonal: the element blocks (16 e + 4 a + b, the share of
+    /// the slot of (t_b, t_a)) summed into it
+    Lists blockSources;
+    Lists nodeCorners; ///< per node: the element corners (4 e + a) at it
 };
 
 /// The elements' elastic and damping force on one node, at the network's state (for an anchor's body);
 /// through the solver's lists of each node's corners where implicit Euler has made them.
 Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint32_t node);
 
-/// Elastic and damping forces of the elements added to f (f must hold the external forces).
+/// Elastic and damping forces of the elements added to f (f must hold the external forces). `since`: the
+/// time since the rotations in rotationState were found (the step; 0 if not known).
 void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                      std::vector<Vec3>& f, std::vector<Quat>& rotationState);
+                      std::vector<Vec3>& f, std::vector<Quat>& rotationState, double since);
 
 /// One step of an fem body by its integrator (symplectic or implicit Euler).
 SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, ForceIncidence& incidence,
                    const Environment& env, double h);
 
-/// The polar rotation of f started from q (see the header comment); q is updated to it.
-Mat3 rotationOf(const Mat3& f, Quat& q, bool fromScratch);
+/// The polar rotation of f started from q turned by `turn` (axis times angle, in the world's frame: the
+/// turn expected since q was found); q is updated to it. See the header comment.
+Mat3 rotationOf(const Mat3& f, Quat& q, bool fromScratch, const Vec3& turn = {});
 
 } // namespace tumble
