@@ -72,9 +72,9 @@ struct ReplayFile {
 /// Goes up whenever the simulated bits or the layout change (2: the multicolour smoother of large cloths; 3:
 /// the implicit solver's rows summed in two partials for its AVX2 kernels, keyed particle births, the `set`
 /// event's KEY=VALUE in every event; 4: fem bodies' rotations started from their spin, their system blocks
-/// summed in float), so that another version's replay is refused with a message rather than failing to
-/// verify.
-inline constexpr std::uint32_t kReplayVersion = 4;
+/// summed in float; 5: fem elements two at a time in their own arithmetic), so that another version's
+/// replay is refused with a message rather than failing to verify.
+inline constexpr std::uint32_t kReplayVersion = 5;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.

@@ -19,26 +19,6 @@ namespace {
 
 using Matrix3 = Eigen::Matrix3d;
 
-Matrix3 toEigen(const Mat3& m) {
-    Matrix3 r;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) {
-            r(i, j) = m.m[std::size_t(3 * i + j)];
-        }
-    }
-    return r;
-}
-
-Mat3 fromEigen(const Matrix3& m) {
-    Mat3 r;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) {
-            r.m[std::size_t(3 * i + j)] = m(i, j);
-        }
-    }
-    return r;
-}
-
 Eigen::Vector3d toEigen(const Vec3& v) {
     return {v.x, v.y, v.z};
 }
@@ -54,28 +34,6 @@ Matrix3 edges(const std::vector<Vec3>& x, const std::array<std::uint32_t, 4>& t)
         d.col(c) = toEigen(x[t[std::size_t(c) + 1]] - x[t[0]]);
     }
     return d;
-}
-
-/// F = sum_a x_a g_a^T, and the same of velocities (the rate of F).
-Matrix3 gradientOf(const std::vector<Vec3>& x, const std::array<std::uint32_t, 4>& t,
-                   const std::array<Vec3, 4>& g) {
-    Matrix3 f;
-    const double gc[4][3] = {{g[0].x, g[0].y, g[0].z},
-                             {g[1].x, g[1].y, g[1].z},
-                             {g[2].x, g[2].y, g[2].z},
-                             {g[3].x, g[3].y, g[3].z}};
-    for (int j = 0; j < 3; ++j) {
-        f(0, j) = x[t[0]].x * gc[0][j] + x[t[1]].x * gc[1][j] + x[t[2]].x * gc[2][j] + x[t[3]].x * gc[3][j];
-        f(1, j) = x[t[0]].y * gc[0][j] + x[t[1]].y * gc[1][j] + x[t[2]].y * gc[2][j] + x[t[3]].y * gc[3][j];
-        f(2, j) = x[t[0]].z * gc[0][j] + x[t[1]].z * gc[1][j] + x[t[2]].z * gc[2][j] + x[t[3]].z * gc[3][j];
-    }
-    return f;
-}
-
-/// The linear stress of a (symmetric part of a) displacement gradient: lambda tr(e) I + 2 mu e.
-Matrix3 stressOf(const Matrix3& grad, double lambda, double mu) {
-    const Matrix3 e = 0.5 * (grad + grad.transpose());
-    return lambda * e.trace() * Matrix3::Identity() + 2.0 * mu * e;
 }
 
 /// "element 12 (nodes 3, 4, 9, 10)", numbered as the mesh's files number them, after "file:line: " for
@@ -399,162 +357,14 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
     return net;
 }
 
-namespace {
-
-/// The rotation of F from its SVD, with a reflection moved onto the smallest singular value (Irving et al.
-/// 2004), so that it is a proper rotation however F is turned or inverted.
-Eigen::Quaterniond svdRotation(const Matrix3& f) {
-    Eigen::JacobiSVD<Matrix3> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Matrix3 u = svd.matrixU();
-    Matrix3 v = svd.matrixV();
-    if (u.determinant() < 0.0) {
-        u.col(2) = -u.col(2);
-    }
-    if (v.determinant() < 0.0) {
-        v.col(2) = -v.col(2);
-    }
-    return Eigen::Quaterniond(Matrix3(u * v.transpose()));
-}
-
-/// Solves G t = w for a symmetric 3x3 G by its adjugate; false unless G is clearly positive definite: its
-/// leading minors (Sylvester's test) above least, least^2 and least^3.
-bool solvePositive(const Matrix3& g, const Eigen::Vector3d& w, double least, Eigen::Vector3d& t) {
-    const double c00 = g(1, 1) * g(2, 2) - g(1, 2) * g(2, 1);
-    const double c01 = g(1, 2) * g(2, 0) - g(1, 0) * g(2, 2);
-    const double c02 = g(1, 0) * g(2, 1) - g(1, 1) * g(2, 0);
-    const double minor2 = g(0, 0) * g(1, 1) - g(0, 1) * g(1, 0);
-    const double det = g(0, 0) * c00 + g(0, 1) * c01 + g(0, 2) * c02;
-    if (!(g(0, 0) > least) || !(minor2 > least * least) || !(det > least * least * least)) {
-        return false;
-    }
-    const double c11 = g(0, 0) * g(2, 2) - g(0, 2) * g(2, 0);
-    const double c12 = g(0, 1) * g(2, 0) - g(0, 0) * g(2, 1);
-    const double c22 = minor2;
-    const double inv = 1.0 / det;
-    // G is symmetric, so is its adjugate
-    t.x() = (c00 * w.x() + c01 * w.y() + c02 * w.z()) * inv;
-    t.y() = (c01 * w.x() + c11 * w.y() + c12 * w.z()) * inv;
-    t.z() = (c02 * w.x() + c12 * w.y() + c22 * w.z()) * inv;
-    return true;
-}
-
-/// A quaternion of a turn (axis times angle), not unit: under 0.1 rad (1, t / 2), whose angle is off by
-/// under 1e-4 of itself (which the next iteration, or step, takes out); larger turns exactly, at most 1 rad
-/// (Newton's step is only trusted that far).
-Eigen::Quaterniond turnQuaternion(const Eigen::Vector3d& t) {
-    if (t.squaredNorm() < 0.01) {
-        return Eigen::Quaterniond(1.0, 0.5 * t.x(), 0.5 * t.y(), 0.5 * t.z());
-    }
-    const double angle = t.norm();
-    return Eigen::Quaterniond(Eigen::AngleAxisd(std::min(angle, 1.0), t / angle));
-}
-
-/// The rotation of a quaternion that need not be unit (its length divides out): one division, where
-/// normalising first would take a square root as well.
-Matrix3 rotationMatrix(const Eigen::Quaterniond& q) {
-    const double s = 2.0 / q.squaredNorm();
-    const double x = q.x(), y = q.y(), z = q.z(), w = q.w();
-    Matrix3 r;
-    r << 1.0 - s * (y * y + z * z), s * (x * y - w * z), s * (x * z + w * y), //
-        s * (x * y + w * z), 1.0 - s * (x * x + z * z), s * (y * z - w * x),  //
-        s * (x * z - w * y), s * (y * z + w * x), 1.0 - s * (x * x + y * y);
-    return r;
-}
-
-} // namespace
-
-Mat3 rotationOf(const Mat3& fm, Quat& q, bool fromScratch, const Vec3& turn) {
-    const Matrix3 f = toEigen(fm);
-    // Newton's method on the condition that R^T F be symmetric, from last step's R turned by the turn
-    // expected since (the elements' spin times the step): with M = R^T F and S = sym(M), the turn t that
-    // symmetrises R exp([t])'s M to first order solves (tr(S) I - S) t = axial(M - M^T); quadratic, so
-    // about one iteration a step once the expected turn is taken. The SVD instead on the first step, for
-    // an inverted element, where tr(S) I - S is not clearly positive definite (an element nearly flat, or
-    // R more than a quarter turn off, where Newton could settle on R turned half round) and where Newton
-    // does not settle in 8 iterations. The quaternion is normalised once, at the end: its length grows
-    // by under 1e-3 an iteration
-    bool newton = !fromScratch && f.determinant() > 0.0;
-    Eigen::Quaterniond r(q.w, q.x, q.y, q.z);
-    if (newton) {
-        r = turnQuaternion(toEigen(turn)) * r;
-    }
-    Matrix3 rm = rotationMatrix(r);
-    for (int it = 0; newton; ++it) {
-        const Matrix3 m = rm.transpose() * f;
-        const Eigen::Vector3d w(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
-        const Matrix3 sym = 0.5 * (m + m.transpose());
-        Eigen::Vector3d t;
-        if (!solvePositive(sym.trace() * Matrix3::Identity() - sym, w, 1e-6 * sym.trace(), t) || it == 8) {
-            newton = false;
-            break;
-        }
-        const double squared = t.squaredNorm();
-        if (!(squared > 1e-24)) {
-            break;
-        }
-        r = r * turnQuaternion(t);
-        rm = rotationMatrix(r);
-        if (squared < 1e-6) {
-            break; // what is left is of the order of this turn squared (under 1e-3 rad): about 1e-6 rad
-        }
-    }
-    if (!newton) {
-        r = svdRotation(f);
-        rm = rotationMatrix(r);
-    }
-    r.normalize();
-    q = {r.x(), r.y(), r.z(), r.w()};
-    return fromEigen(rm);
-}
-
-namespace {
-
-/// One element this step: its deformation gradient, rotation and corner forces.
-struct ElementState {
-    Matrix3 f, r;
-    std::array<Eigen::Vector3d, 4> force;
-};
-
-/// Element e at (x, v): its rotation (the state updated), and its forces on its corners, elastic at x
-/// plus the stiffness term at v scaled by `damping` (beta for the damping force; h + beta for implicit
-/// Euler's right-hand side, which holds -(h + beta) K v). `since` is the time since the state's rotation
-/// was found (the step, as x moved by h v since; 0 where not known): the element's spin at v times it is
-/// the turn Newton starts from.
-ElementState element(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                     std::size_t e, Quat& state, double damping, double since) {
-    const FemElements& fem = net.fem;
-    const auto& t = fem.tets[e];
-    const auto& g = fem.gradients[e];
-    ElementState out;
-    out.f = gradientOf(x, t, g);
-    const Matrix3 fRate = gradientOf(v, t, g);
-    const bool fresh = state == kNoRotation;
-    Vec3 turn;
-    if (!fresh && since > 0.0) {
-        // the spin: the axial vector of the skew part of dF/dt F^-1, with R for F (small strain)
-        const Matrix3 b =
-            fRate * rotationMatrix(Eigen::Quaterniond(state.w, state.x, state.y, state.z)).transpose();
-        turn = Vec3{b(2, 1) - b(1, 2), b(0, 2) - b(2, 0), b(1, 0) - b(0, 1)} * (0.5 * since);
-    }
-    out.r = toEigen(rotationOf(fromEigen(out.f), state, fresh, turn));
-    // the stress is linear in the strain: that of the strain R^T F - I plus `damping` times that of its
-    // rate R^T dF/dt is that of their sum
-    const Matrix3 strain = out.r.transpose() * (out.f + damping * fRate) - Matrix3::Identity();
-    const Matrix3 p = -fem.volume[e] * (out.r * stressOf(strain, fem.lambda, fem.mu));
-    for (std::size_t a = 0; a < 4; ++a) {
-        out.force[a] = p * toEigen(g[a]);
-    }
-    return out;
-}
-
-} // namespace
-
 Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint32_t node) {
     const FemElements& fem = net.fem;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Vec3 sum;
     auto add = [&](std::size_t e, std::size_t k) {
         Quat q = fem.rotation[e]; // a copy: the state is the step's, not this query's
-        sum += element(net, net.x, net.v, e, q, fem.stiffnessDamping, 0.0).force[k];
+        std::array<Vec3, 4> force;
+        elementForces(fem, net.x, net.v, e, e + 1, &q, fem.stiffnessDamping, 0.0, {&force});
+        sum += force[k];
     };
     if (solver.nodeCorners.start.size() == net.x.size() + 1) {
         // implicit Euler's lists: the node's corners, in element order
@@ -570,16 +380,22 @@ Vec3 elementForceOn(const SpringNetwork& net, const FemSolver& solver, std::uint
             }
         }
     }
-    return fromEigen(sum);
+    return sum;
 }
 
 void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                       std::vector<Vec3>& f, std::vector<Quat>& rotationState, double since) {
     const FemElements& fem = net.fem;
-    for (std::size_t e = 0; e < fem.tets.size(); ++e) {
-        const ElementState el = element(net, x, v, e, rotationState[e], fem.stiffnessDamping, since);
-        for (std::size_t a = 0; a < 4; ++a) {
-            f[fem.tets[e][a]] += fromEigen(el.force[a]);
+    constexpr std::size_t kBatch = 64;
+    std::array<std::array<Vec3, 4>, kBatch> force;
+    for (std::size_t first = 0; first < fem.tets.size(); first += kBatch) {
+        const std::size_t end = std::min(first + kBatch, fem.tets.size());
+        elementForces(fem, x, v, first, end, &rotationState[first], fem.stiffnessDamping, since,
+                      {force.data()});
+        for (std::size_t e = first; e < end; ++e) {
+            for (std::size_t a = 0; a < 4; ++a) {
+                f[fem.tets[e][a]] += force[e - first][a];
+            }
         }
     }
     for (std::size_t i = 0; i < x.size(); ++i) {
@@ -662,7 +478,7 @@ struct BlockRows {
     __m128 row[3];
 };
 void addElementBlock(const FemSolver& s, std::uint32_t source, __m128 ratio, BlockRows& block) {
-    const std::array<Vec3T<float>, 4>& scaled = s.elements[source / 16].turned;
+    const std::array<Vec3T<float>, 4>& scaled = s.turned[source / 16];
     const Vec3T<float>& sa = scaled[(source % 16) / 4];
     const Vec3T<float>& sb = scaled[source % 4];
     const __m128 a = sa.simd(), b = sb.simd();
@@ -701,16 +517,11 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
     // each element's rotation, forces and scaled turned gradients s = sqrt(c V mu) R g (addElementBlock),
     // shared out over threads (each element writes its own)
     WorkerPool& pool = poolOr(env.pool);
-    s.elements.resize(fem.tets.size());
-    pool.forEach(fem.tets.size(), 256, [&](std::size_t e) {
-        const ElementState el = element(net, net.x, net.v, e, net.fem.rotation[e], h + beta, h);
-        FemSolver::Element& out = s.elements[e];
-        const double scale = std::sqrt(c * fem.volume[e] * fem.mu);
-        for (std::size_t k = 0; k < 4; ++k) {
-            out.force[k] = fromEigen(el.force[k]);
-            out.turned[k] =
-                Vec3T<float>::from(fromEigen(Eigen::Vector3d(scale * (el.r * toEigen(fem.gradients[e][k])))));
-        }
+    s.forces.resize(fem.tets.size());
+    s.turned.resize(fem.tets.size());
+    pool.forChunks(fem.tets.size(), 256, [&](std::size_t, std::size_t first, std::size_t end) {
+        elementForces(fem, net.x, net.v, first, end, &net.fem.rotation[first], h + beta, h,
+                      {&s.forces[first], &s.turned[first], c});
     });
     // then each node gathers its corners' forces (in double) and each block of its row on or right of the
     // diagonal its elements' shares (in float), in element order (the additions a scatter element after
@@ -722,7 +533,7 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
             Vec3 r = (f[i] - net.v[i] * (alpha * m)) * h;
             for (std::uint32_t k = s.nodeCorners.start[i]; k < s.nodeCorners.start[i + 1]; ++k) {
                 const std::uint32_t corner = s.nodeCorners.items[k];
-                r += s.elements[corner / 4].force[corner % 4] * h;
+                r += s.forces[corner / 4][corner % 4] * h;
             }
             s.rhs[i] = r;
             for (std::uint32_t block = a.diag[i]; block < a.rowStart[i + 1]; ++block) {

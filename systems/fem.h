@@ -26,6 +26,7 @@
 // beyond flat along one axis and is pushed back out, never a NaN.
 
 #include "components/spring_network.h"
+#include "systems/fem_element.h"
 #include "systems/linear_solver.h"
 #include "systems/spring_forces.h"
 
@@ -36,9 +37,6 @@
 #include <vector>
 
 namespace tumble {
-
-/// An element's rotation before its first step (not a rotation: the first step finds it by an SVD).
-inline constexpr Quat kNoRotation{0.0, 0.0, 0.0, 0.0};
 
 /// Nodes and tetrahedra, before they become a body.
 struct TetMesh {
@@ -95,12 +93,9 @@ struct FemSolver {
     std::vector<std::uint8_t> pinnedWhenBuilt;
     AggregationMultigrid<float> multigrid;
     PcgVectors<float> pcg;
-    /// What implicit Euler's assembly keeps of each element between its two passes
-    struct Element {
-        std::array<Vec3, 4> force;          ///< on each corner, with the stiffness's rate term
-        std::array<Vec3T<float>, 4> turned; ///< sqrt(c V mu) R g_a, c = h^2 + h beta (see addElementBlock)
-    };
-    std::vector<Element> elements;
+    // what implicit Euler's assembly keeps of each element between its two passes
+    std::vector<std::array<Vec3, 4>> forces;         ///< on each corner, with the stiffness's rate term
+    std::vector<std::array<Vec3T<float>, 4>> turned; ///< sqrt(c V mu) R g_a, c = h^2 + h beta
     /// Compressed lists: the entries of i are items[start[i] .. start[i + 1]).
     struct Lists {
         std::vector<std::uint32_t> start, items;
@@ -123,9 +118,5 @@ void addElementForces(const SpringNetwork& net, const std::vector<Vec3>& x, cons
 /// One step of an fem body by its integrator (symplectic or implicit Euler).
 SolveStats stepFem(SpringNetwork& net, FemSolver& solver, std::vector<Vec3>& f, ForceIncidence& incidence,
                    const Environment& env, double h);
-
-/// The polar rotation of f started from q turned by `turn` (axis times angle, in the world's frame: the
-/// turn expected since q was found); q is updated to it. See the header comment.
-Mat3 rotationOf(const Mat3& f, Quat& q, bool fromScratch, const Vec3& turn = {});
 
 } // namespace tumble
