@@ -1,0 +1,74 @@
+#pragma once
+// Air on a grid: velocity, smoke and heat in a box of cubic cells centred on the entity (README, "Air").
+// The grid is staggered (a MAC grid, Harlow and Welch 1965): smoke and heat at the cells' centres, each
+// velocity component on the faces across it (u on the faces across x, v across y, w across z), so that a
+// cell's divergence is the difference of its faces' flows and the projection leaves it zero to within the
+// solver's tolerance.
+
+#include "engine/math.h"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace tumble {
+
+/// What a side of the box is: a wall (no flow through it) or open (air leaves and enters freely, at the
+/// pressure of the world outside).
+enum class AirBorder : std::uint8_t { Closed, Open };
+
+/// One level of the projection's multigrid: a grid of cells padded by a layer of zeros on every side (so
+/// that a neighbour past a wall or an open side reads as zero and the stencil needs no branch), and each
+/// cell's diagonal (weight times its neighbours in the box plus its open sides).
+struct AirLevel {
+    std::array<int, 3> n{};
+    float weight = 1.0f; ///< the stencil's weight on this level (2 on the one below the finest, ...)
+    std::vector<float> diagonal, relax, x, b, scratch; ///< relax: Jacobi's weight over the diagonal
+};
+
+/// What the projection keeps between steps: its levels and work vectors (padded, as AirLevel).
+struct AirScratch {
+    std::vector<AirLevel> levels;
+    std::vector<float> r, p, q;
+    std::vector<float> u, v, w, smoke, heat;           ///< the advection's outputs, swapped with the fields
+    std::vector<float> cellVelocity, curl, curlLength; ///< the vorticity confinement's, 3 n, 3 n, n
+};
+
+/// The grid, its parameters and its fields (README, "Air").
+struct Air {
+    std::array<int, 3> cells{32, 32, 32}; ///< along x, y, z
+    double cell = 0.125;                  ///< m, the side of a (cubic) cell
+    Vec3 centre;                          ///< m, the box's centre
+    /// per side: -x, +x, -y, +y, -z, +z
+    std::array<AirBorder, 6> border{AirBorder::Closed, AirBorder::Closed, AirBorder::Closed,
+                                    AirBorder::Closed, AirBorder::Closed, AirBorder::Closed};
+    double vorticity = 0.0;   ///< confinement strength epsilon (Fedkiw, Stam and Jensen 2001), 0 = off
+    double smokeWeight = 0.0; ///< m/s^2 per unit of smoke density: smoke sinks
+    double heatLift = 0.0;    ///< m/s^2 per degree above the grid's mean: heat rises
+    double dissipation = 0.0; ///< 1/s, smoke's decay
+    double viscosity = 0.0;   ///< m^2/s
+    double tolerance = 1e-3;  ///< 1/s: the largest divergence a cell keeps after the projection
+    bool dumpFields = false;  ///< dump the whole fields, not only their summary
+
+    // the fields, x fastest, then y, then z
+    std::vector<float> u, v, w;       ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
+    std::vector<float> smoke, heat;   ///< density (1 = thick), degrees above ambient; nx ny nz each
+    std::vector<float> pressure;      ///< the last projection's (scaled: p dt / rho), the next one's guess
+    double divergenceMax = 0.0;       ///< 1/s, the largest cell divergence after the last projection
+    std::uint32_t lastIterations = 0; ///< the last projection's CG iterations
+    AirScratch scratch;
+
+    std::size_t cellCount() const {
+        return std::size_t(cells[0]) * std::size_t(cells[1]) * std::size_t(cells[2]);
+    }
+    /// World position of the box's lowest corner.
+    Vec3 origin() const { return centre - Vec3{cells[0] * cell, cells[1] * cell, cells[2] * cell} * 0.5; }
+    /// Index of cell (i, j, k).
+    std::size_t at(int i, int j, int k) const {
+        return std::size_t(i) +
+               std::size_t(cells[0]) * (std::size_t(j) + std::size_t(cells[1]) * std::size_t(k));
+    }
+};
+
+} // namespace tumble

@@ -1,0 +1,734 @@
+#include "systems/air_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+namespace tumble {
+
+namespace {
+
+constexpr std::size_t kSlabs = 2; ///< z-slabs a chunk of work (fixed: the same bits at any thread count)
+constexpr float kJacobiWeight =
+    6.0f / 7.0f;                    ///< weighted Jacobi's best smoothing weight for the 3D 7-point stencil
+constexpr int kSmoothing = 2;       ///< Jacobi sweeps before and after the coarse correction
+constexpr int kCoarsestSweeps = 30; ///< on the coarsest level (a few cells a side)
+constexpr std::uint32_t kMostIterations = 200;
+constexpr double kAirDensity = 1.2; ///< kg/m^3, for the kinetic energy
+
+/// A grid of n cells padded by one cell of zeros on every side.
+struct Padded {
+    int nx, ny, nz;
+    std::ptrdiff_t sx, sy;
+
+    explicit Padded(const std::array<int, 3>& n)
+        : nx(n[0]), ny(n[1]), nz(n[2]), sx(nx + 2), sy(std::ptrdiff_t(nx + 2) * (ny + 2)) {}
+    std::size_t size() const { return std::size_t(sy) * std::size_t(nz + 2); }
+    std::size_t at(int i, int j, int k) const { return std::size_t((i + 1) + sx * (j + 1) + sy * (k + 1)); }
+};
+
+/// Calls fn(j, k) for every row of cells (j, k), z-slabs shared out over the pool.
+template <class F>
+void forRows(WorkerPool& pool, int ny, int nz, F&& fn) {
+    pool.forChunks(std::size_t(nz), kSlabs, [&](std::size_t, std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k) {
+            for (int j = 0; j < ny; ++j) {
+                fn(j, int(k));
+            }
+        }
+    });
+}
+
+/// The sum over the rows of rowSum(j, k), per slab chunk and then in chunk order.
+template <class T, class F>
+T sumRows(WorkerPool& pool, int ny, int nz, T zero, F&& rowSum) {
+    return pool.sum(std::size_t(nz), kSlabs, zero, [&](std::size_t k0, std::size_t k1) {
+        T s = zero;
+        for (std::size_t k = k0; k < k1; ++k) {
+            for (int j = 0; j < ny; ++j) {
+                s += rowSum(j, int(k));
+            }
+        }
+        return s;
+    });
+}
+
+/// A maximum that pool.sum can combine (+= keeps the larger).
+struct Largest {
+    double value = 0.0;
+    Largest& operator+=(const Largest& o) {
+        value = std::max(value, o.value);
+        return *this;
+    }
+};
+
+// ---- the projection's multigrid ----
+
+/// y = A x on a level: A x = weight (count x_c - sum of the six neighbours), the padding reading zero.
+void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& pool) {
+    const Padded g(level.n);
+    const float weight = level.weight;
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        const float* c = x + row;
+        const float* d = level.diagonal.data() + row;
+        float* out = y + row;
+        for (int i = 0; i < g.nx; ++i) {
+            const float around =
+                ((c[i - 1] + c[i + 1]) + (c[i - g.sx] + c[i + g.sx])) + (c[i - g.sy] + c[i + g.sy]);
+            out[i] = d[i] * c[i] - weight * around;
+        }
+    });
+}
+
+/// One weighted Jacobi sweep: out = x + omega D^-1 (b - A x).
+void jacobi(const AirLevel& level, const float* x, const float* b, float* out, WorkerPool& pool) {
+    const Padded g(level.n);
+    const float weight = level.weight;
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        const float* c = x + row;
+        const float* d = level.diagonal.data() + row;
+        const float* relax = level.relax.data() + row;
+        const float* rhs = b + row;
+        float* o = out + row;
+        for (int i = 0; i < g.nx; ++i) {
+            const float around =
+                ((c[i - 1] + c[i + 1]) + (c[i - g.sx] + c[i + g.sx])) + (c[i - g.sy] + c[i + g.sy]);
+            o[i] = c[i] + relax[i] * (rhs[i] - (d[i] * c[i] - weight * around));
+        }
+    });
+}
+
+/// `sweeps` Jacobi sweeps from zero on level l, for right-hand side b; the result in level.x.
+void smoothFromZero(AirLevel& level, const float* b, int sweeps, WorkerPool& pool) {
+    const Padded g(level.n);
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            level.x[row + std::size_t(i)] = level.relax[row + std::size_t(i)] * b[row + std::size_t(i)];
+        }
+    });
+    for (int s = 1; s < sweeps; ++s) {
+        jacobi(level, level.x.data(), b, level.scratch.data(), pool);
+        level.x.swap(level.scratch);
+    }
+}
+
+/// The V-cycle on level l for right-hand side b (level 0's is the CG residual; the others' their b), the
+/// result in the level's x: Jacobi from zero, the residual summed onto the coarser level's cells, its
+/// correction added back to every cell it merged, Jacobi again (as many sweeps: the cycle is symmetric).
+void vcycle(std::vector<AirLevel>& levels, std::size_t l, const float* b, WorkerPool& pool) {
+    AirLevel& level = levels[l];
+    if (l + 1 == levels.size()) {
+        smoothFromZero(level, b, kCoarsestSweeps, pool);
+        return;
+    }
+    smoothFromZero(level, b, kSmoothing, pool);
+    const Padded g(level.n);
+    AirLevel& coarse = levels[l + 1];
+    const Padded c(coarse.n);
+    // residual into scratch
+    applyLevel(level, level.x.data(), level.scratch.data(), pool);
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            level.scratch[row + std::size_t(i)] =
+                b[row + std::size_t(i)] - level.scratch[row + std::size_t(i)];
+        }
+    });
+    // restriction: the sum of a coarse cell's (up to) eight cells; a missing one is padding, zero
+    forRows(pool, c.ny, c.nz, [&](int j, int k) {
+        for (int i = 0; i < c.nx; ++i) {
+            const float* f = level.scratch.data() + g.at(2 * i, 2 * j, 2 * k);
+            coarse.b[c.at(i, j, k)] = ((f[0] + f[1]) + (f[g.sx] + f[g.sx + 1])) +
+                                      ((f[g.sy] + f[g.sy + 1]) + (f[g.sy + g.sx] + f[g.sy + g.sx + 1]));
+        }
+    });
+    vcycle(levels, l + 1, coarse.b.data(), pool);
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        const float* from = coarse.x.data() + c.at(0, j / 2, k / 2);
+        for (int i = 0; i < g.nx; ++i) {
+            level.x[row + std::size_t(i)] += from[i / 2];
+        }
+    });
+    for (int s = 0; s < kSmoothing; ++s) {
+        jacobi(level, level.x.data(), b, level.scratch.data(), pool);
+        level.x.swap(level.scratch);
+    }
+}
+
+/// The levels for the air's grid: each merges 2 x 2 x 2 cells of the one above (an odd side's last cells
+/// alone), down to a side of 2 or fewer than 64 cells.
+void buildLevels(Air& air) {
+    std::vector<AirLevel>& levels = air.scratch.levels;
+    levels.clear();
+    std::array<int, 3> n = air.cells;
+    float weight = 1.0f;
+    for (;;) {
+        AirLevel level;
+        level.n = n;
+        level.weight = weight;
+        const Padded g(n);
+        level.diagonal.assign(g.size(), 0.0f);
+        level.relax.assign(g.size(), 0.0f);
+        level.x.assign(g.size(), 0.0f);
+        level.b.assign(g.size(), 0.0f);
+        level.scratch.assign(g.size(), 0.0f);
+        for (int k = 0; k < n[2]; ++k) {
+            for (int j = 0; j < n[1]; ++j) {
+                for (int i = 0; i < n[0]; ++i) {
+                    const int index[3] = {i, j, k};
+                    int count = 0;
+                    for (int a = 0; a < 3; ++a) {
+                        // a neighbour inside counts, and so does an open side (zero pressure beyond it)
+                        count += index[a] > 0 || air.border[std::size_t(2 * a)] == AirBorder::Open ? 1 : 0;
+                        count += index[a] + 1 < n[std::size_t(a)] ||
+                                         air.border[std::size_t(2 * a + 1)] == AirBorder::Open
+                                     ? 1
+                                     : 0;
+                    }
+                    level.diagonal[g.at(i, j, k)] = weight * float(count);
+                    level.relax[g.at(i, j, k)] = count > 0 ? kJacobiWeight / (weight * float(count)) : 0.0f;
+                }
+            }
+        }
+        levels.push_back(std::move(level));
+        if (std::min({n[0], n[1], n[2]}) <= 2 || std::size_t(n[0]) * n[1] * n[2] < 64) {
+            break;
+        }
+        n = {(n[0] + 1) / 2, (n[1] + 1) / 2, (n[2] + 1) / 2};
+        weight *= 2.0f; // the coarse stencil as rediscretised on cells twice as wide, in the fine one's units
+    }
+}
+
+bool allClosed(const Air& air) {
+    return std::all_of(air.border.begin(), air.border.end(),
+                       [](AirBorder b) { return b == AirBorder::Closed; });
+}
+
+/// The normal velocity on the closed sides' faces set to zero.
+void closeSides(Air& air) {
+    const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
+    for (int k = 0; k < nz; ++k) {
+        for (int j = 0; j < ny; ++j) {
+            const std::size_t row = std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k);
+            if (air.border[0] == AirBorder::Closed) {
+                air.u[row] = 0.0f;
+            }
+            if (air.border[1] == AirBorder::Closed) {
+                air.u[row + std::size_t(nx)] = 0.0f;
+            }
+        }
+        for (int i = 0; i < nx; ++i) {
+            if (air.border[2] == AirBorder::Closed) {
+                air.v[std::size_t(i) + std::size_t(nx) * std::size_t(ny + 1) * k] = 0.0f;
+            }
+            if (air.border[3] == AirBorder::Closed) {
+                air.v[std::size_t(i) + std::size_t(nx) * (std::size_t(ny) + std::size_t(ny + 1) * k)] = 0.0f;
+            }
+        }
+    }
+    const std::size_t layer = std::size_t(nx) * std::size_t(ny);
+    for (std::size_t c = 0; c < layer; ++c) {
+        if (air.border[4] == AirBorder::Closed) {
+            air.w[c] = 0.0f;
+        }
+        if (air.border[5] == AirBorder::Closed) {
+            air.w[c + layer * std::size_t(nz)] = 0.0f;
+        }
+    }
+}
+
+/// Face flows of cell (i, j, k): (u_{i+1} - u_i) + (v_{j+1} - v_j) + (w_{k+1} - w_k), m/s.
+float outflow(const Air& air, int i, int j, int k) {
+    const std::size_t nx = std::size_t(air.cells[0]), ny = std::size_t(air.cells[1]);
+    const std::size_t ui = std::size_t(i) + (nx + 1) * (std::size_t(j) + ny * k);
+    const std::size_t vi = std::size_t(i) + nx * (std::size_t(j) + (ny + 1) * k);
+    const std::size_t wi = std::size_t(i) + nx * (std::size_t(j) + ny * k);
+    return ((air.u[ui + 1] - air.u[ui]) + (air.v[vi + nx] - air.v[vi])) + (air.w[wi + nx * ny] - air.w[wi]);
+}
+
+/// Subtracts the mean over the cells from a padded vector (the all-closed problem's constant null space).
+void removeMean(const Air& air, std::vector<float>& x, WorkerPool& pool) {
+    const Padded g(air.cells);
+    const double total = sumRows(pool, g.ny, g.nz, 0.0, [&](int j, int k) {
+        double s = 0.0;
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            s += double(x[row + std::size_t(i)]);
+        }
+        return s;
+    });
+    const auto mean = float(total / double(air.cellCount()));
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            x[row + std::size_t(i)] -= mean;
+        }
+    });
+}
+
+double dotCells(const Air& air, const std::vector<float>& a, const std::vector<float>& b, WorkerPool& pool) {
+    const Padded g(air.cells);
+    return sumRows(pool, g.ny, g.nz, 0.0, [&](int j, int k) {
+        double s = 0.0;
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            s += double(a[row + std::size_t(i)]) * double(b[row + std::size_t(i)]);
+        }
+        return s;
+    });
+}
+
+double largestCell(const Air& air, const std::vector<float>& a, WorkerPool& pool) {
+    const Padded g(air.cells);
+    return sumRows(pool, g.ny, g.nz, Largest{},
+                   [&](int j, int k) {
+                       Largest m;
+                       const std::size_t row = g.at(0, j, k);
+                       for (int i = 0; i < g.nx; ++i) {
+                           m.value = std::max(m.value, double(std::abs(a[row + std::size_t(i)])));
+                       }
+                       return m;
+                   })
+        .value;
+}
+
+/// x += alpha p; r -= alpha q (or p = z + beta p with the second form).
+void axpy(const Air& air, std::vector<float>& y, float alpha, const std::vector<float>& x, WorkerPool& pool) {
+    const Padded g(air.cells);
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            y[row + std::size_t(i)] += alpha * x[row + std::size_t(i)];
+        }
+    });
+}
+
+// ---- advection and forces ----
+
+/// A field sampled on a lattice: value (a, b, c) sits at (a + ox, b + oy, c + oz) in cell units from the
+/// box's lowest corner.
+struct Lattice {
+    const float* f;
+    int nx, ny, nz;
+    float ox, oy, oz;
+
+    /// Trilinear at (x, y, z) in cell units, clamped to the lattice.
+    float at(float x, float y, float z) const {
+        const float fx = std::clamp(x - ox, 0.0f, float(nx - 1));
+        const float fy = std::clamp(y - oy, 0.0f, float(ny - 1));
+        const float fz = std::clamp(z - oz, 0.0f, float(nz - 1));
+        const int i = std::min(int(fx), nx - 2), j = std::min(int(fy), ny - 2), k = std::min(int(fz), nz - 2);
+        const float tx = fx - float(i), ty = fy - float(j), tz = fz - float(k);
+        const std::size_t sx = 1, sy = std::size_t(nx), sz = std::size_t(nx) * std::size_t(ny);
+        const float* p = f + std::size_t(i) + sy * std::size_t(j) + sz * std::size_t(k);
+        auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
+        const float x00 = lerp(p[0], p[sx], tx), x10 = lerp(p[sy], p[sy + sx], tx);
+        const float x01 = lerp(p[sz], p[sz + sx], tx), x11 = lerp(p[sz + sy], p[sz + sy + sx], tx);
+        return lerp(lerp(x00, x10, ty), lerp(x01, x11, ty), tz);
+    }
+};
+
+struct Lattices {
+    Lattice u, v, w;
+};
+
+Lattices velocityLattices(const Air& air) {
+    const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
+    return {{air.u.data(), nx + 1, ny, nz, 0.0f, 0.5f, 0.5f},
+            {air.v.data(), nx, ny + 1, nz, 0.5f, 0.0f, 0.5f},
+            {air.w.data(), nx, ny, nz + 1, 0.5f, 0.5f, 0.0f}};
+}
+
+/// Every point of `out`'s lattice takes `from` at the point the flow brought there over the step: the
+/// point followed back along the velocity there (in cells a step: `scale` = dt / dx).
+void advectLattice(const Lattices& velocity, const Lattice& from, float* out, float scale, WorkerPool& pool) {
+    forRows(pool, from.ny, from.nz, [&](int j, int k) {
+        float* o = out + std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k);
+        const float y = float(j) + from.oy, z = float(k) + from.oz;
+        for (int i = 0; i < from.nx; ++i) {
+            const float x = float(i) + from.ox;
+            const float bx = x - scale * velocity.u.at(x, y, z);
+            const float by = y - scale * velocity.v.at(x, y, z);
+            const float bz = z - scale * velocity.w.at(x, y, z);
+            o[i] = from.at(bx, by, bz);
+        }
+    });
+}
+
+void advect(Air& air, double dt, WorkerPool& pool) {
+    AirScratch& s = air.scratch;
+    const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
+    const Lattices velocity = velocityLattices(air);
+    const auto scale = float(dt / air.cell);
+    advectLattice(velocity, velocity.u, s.u.data(), scale, pool);
+    advectLattice(velocity, velocity.v, s.v.data(), scale, pool);
+    advectLattice(velocity, velocity.w, s.w.data(), scale, pool);
+    advectLattice(velocity, {air.smoke.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, s.smoke.data(), scale, pool);
+    advectLattice(velocity, {air.heat.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, s.heat.data(), scale, pool);
+    air.u.swap(s.u);
+    air.v.swap(s.v);
+    air.w.swap(s.w);
+    air.smoke.swap(s.smoke);
+    air.heat.swap(s.heat);
+}
+
+/// Buoyancy on every face inside the box: along gravity's direction, smoke_weight s - heat_lift (T - mean
+/// T), with s and T the mean of the face's two cells.
+void buoyancy(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
+    const int n[3] = {air.cells[0], air.cells[1], air.cells[2]};
+    const double g = length(gravity);
+    const Vec3 down = g > 0.0 ? gravity * (1.0 / g) : Vec3{0.0, -1.0, 0.0};
+    const double meanHeat = sumRows(pool, n[1], n[2], 0.0,
+                                    [&](int j, int k) {
+                                        double s = 0.0;
+                                        for (int i = 0; i < n[0]; ++i) {
+                                            s += double(air.heat[air.at(i, j, k)]);
+                                        }
+                                        return s;
+                                    }) /
+                            double(air.cellCount());
+    const auto weight = float(air.smokeWeight), lift = float(air.heatLift), mean = float(meanHeat);
+    std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
+    const double along[3] = {down.x, down.y, down.z};
+    for (int a = 0; a < 3; ++a) {
+        if (along[a] == 0.0) {
+            continue;
+        }
+        const auto push = float(along[a] * dt);
+        const std::size_t step = a == 0   ? 1
+                                 : a == 1 ? std::size_t(n[0])
+                                          : std::size_t(n[0]) * std::size_t(n[1]);
+        std::array<int, 3> f{n[0], n[1], n[2]};
+        f[std::size_t(a)] += 1;
+        std::vector<float>& face = *faces[a];
+        forRows(pool, f[1], f[2], [&](int j, int k) {
+            float* row = face.data() + std::size_t(f[0]) * (std::size_t(j) + std::size_t(f[1]) * k);
+            for (int i = 0; i < f[0]; ++i) {
+                const int idx[3] = {i, j, k};
+                if (idx[a] == 0 || idx[a] == n[a]) {
+                    continue; // a face on the box's side: the projection sets it
+                }
+                const std::size_t hi = air.at(i, j, k), lo = hi - step; // the cells on either side
+                const float smoke = 0.5f * (air.smoke[lo] + air.smoke[hi]);
+                const float heat = 0.5f * (air.heat[lo] + air.heat[hi]) - mean;
+                row[i] += push * (weight * smoke - lift * heat);
+            }
+        });
+    }
+}
+
+/// Vorticity confinement (Fedkiw, Stam and Jensen 2001): at each cell the curl omega of the cells'
+/// velocities (central differences, one-sided at the box's sides), N the unit gradient of |omega|, and the
+/// force eps dx (N x omega), which spins up the small eddies the grid's interpolation smooths away; each
+/// face inside the box takes the mean of its two cells' forces.
+void confineVorticity(Air& air, double dt, WorkerPool& pool) {
+    const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
+    AirScratch& s = air.scratch;
+    const std::size_t n = air.cellCount();
+    s.cellVelocity.resize(3 * n);
+    s.curl.resize(3 * n);
+    s.curlLength.resize(n);
+    float* cv = s.cellVelocity.data();
+    forRows(pool, ny, nz, [&](int j, int k) {
+        for (int i = 0; i < nx; ++i) {
+            const std::size_t c = air.at(i, j, k);
+            const std::size_t ui =
+                std::size_t(i) + std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k);
+            const std::size_t vi =
+                std::size_t(i) + std::size_t(nx) * (std::size_t(j) + std::size_t(ny + 1) * k);
+            cv[3 * c] = 0.5f * (air.u[ui] + air.u[ui + 1]);
+            cv[3 * c + 1] = 0.5f * (air.v[vi] + air.v[vi + std::size_t(nx)]);
+            cv[3 * c + 2] = 0.5f * (air.w[c] + air.w[c + std::size_t(nx) * std::size_t(ny)]);
+        }
+    });
+    // d(component)/d(axis) at a cell, central where it can be
+    auto derivative = [&](const float* field, int stride, int i, int j, int k, int axis, int component) {
+        const int index[3] = {i, j, k};
+        const int size = air.cells[std::size_t(axis)];
+        const int lo = std::max(index[axis] - 1, 0), hi = std::min(index[axis] + 1, size - 1);
+        if (hi == lo) {
+            return 0.0f;
+        }
+        int a[3] = {i, j, k}, b[3] = {i, j, k};
+        a[axis] = lo;
+        b[axis] = hi;
+        const float fa = field[std::size_t(stride) * air.at(a[0], a[1], a[2]) + std::size_t(component)];
+        const float fb = field[std::size_t(stride) * air.at(b[0], b[1], b[2]) + std::size_t(component)];
+        return (fb - fa) / (float(hi - lo) * float(air.cell));
+    };
+    forRows(pool, ny, nz, [&](int j, int k) {
+        for (int i = 0; i < nx; ++i) {
+            const std::size_t c = air.at(i, j, k);
+            const float wx = derivative(cv, 3, i, j, k, 1, 2) - derivative(cv, 3, i, j, k, 2, 1);
+            const float wy = derivative(cv, 3, i, j, k, 2, 0) - derivative(cv, 3, i, j, k, 0, 2);
+            const float wz = derivative(cv, 3, i, j, k, 0, 1) - derivative(cv, 3, i, j, k, 1, 0);
+            s.curl[3 * c] = wx;
+            s.curl[3 * c + 1] = wy;
+            s.curl[3 * c + 2] = wz;
+            s.curlLength[c] = std::sqrt(wx * wx + wy * wy + wz * wz);
+        }
+    });
+    // the force, in place of the cell velocities (no longer needed)
+    const auto strength = float(air.vorticity * air.cell);
+    forRows(pool, ny, nz, [&](int j, int k) {
+        for (int i = 0; i < nx; ++i) {
+            const std::size_t c = air.at(i, j, k);
+            const float gx = derivative(s.curlLength.data(), 1, i, j, k, 0, 0);
+            const float gy = derivative(s.curlLength.data(), 1, i, j, k, 1, 0);
+            const float gz = derivative(s.curlLength.data(), 1, i, j, k, 2, 0);
+            const float scale = strength / (std::sqrt(gx * gx + gy * gy + gz * gz) + 1e-20f);
+            const float nxv = gx * scale, nyv = gy * scale, nzv = gz * scale;
+            const float* w = &s.curl[3 * c];
+            cv[3 * c] = nyv * w[2] - nzv * w[1];
+            cv[3 * c + 1] = nzv * w[0] - nxv * w[2];
+            cv[3 * c + 2] = nxv * w[1] - nyv * w[0];
+        }
+    });
+    const auto h = float(0.5 * dt);
+    forRows(pool, ny, nz, [&](int j, int k) {
+        for (int i = 0; i < nx; ++i) {
+            const std::size_t c = air.at(i, j, k);
+            if (i > 0) {
+                air.u[std::size_t(i) + std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k)] +=
+                    h * (cv[3 * c] + cv[3 * (c - 1)]);
+            }
+            if (j > 0) {
+                air.v[std::size_t(i) + std::size_t(nx) * (std::size_t(j) + std::size_t(ny + 1) * k)] +=
+                    h * (cv[3 * c + 1] + cv[3 * (c - std::size_t(nx)) + 1]);
+            }
+            if (k > 0) {
+                air.w[c] += h * (cv[3 * c + 2] + cv[3 * (c - std::size_t(nx) * std::size_t(ny)) + 2]);
+            }
+        }
+    });
+}
+
+/// Viscosity, explicit: each velocity component diffused by nu dt Lap on its own lattice (a neighbour past
+/// the lattice's end reads as the point itself), in as many substeps as nu h / dx^2 <= 1/6 needs.
+void diffuseVelocity(Air& air, double dt, WorkerPool& pool) {
+    const double rate = air.viscosity * dt / (air.cell * air.cell);
+    const int substeps = std::max(1, int(std::ceil(rate * 6.0)));
+    const auto c = float(rate / substeps);
+    const Lattices lattices = velocityLattices(air);
+    std::vector<float>* fields[3] = {&air.u, &air.v, &air.w};
+    std::vector<float>* outs[3] = {&air.scratch.u, &air.scratch.v, &air.scratch.w};
+    const Lattice* shapes[3] = {&lattices.u, &lattices.v, &lattices.w};
+    for (int a = 0; a < 3; ++a) {
+        const Lattice& l = *shapes[a];
+        for (int step = 0; step < substeps; ++step) {
+            const float* f = fields[a]->data();
+            float* o = outs[a]->data();
+            forRows(pool, l.ny, l.nz, [&](int j, int k) {
+                const std::size_t sy = std::size_t(l.nx), sz = std::size_t(l.nx) * std::size_t(l.ny);
+                const std::size_t row = sy * (std::size_t(j) + std::size_t(l.ny) * k);
+                for (int i = 0; i < l.nx; ++i) {
+                    const std::size_t p = row + std::size_t(i);
+                    const float x0 = i > 0 ? f[p - 1] : f[p], x1 = i + 1 < l.nx ? f[p + 1] : f[p];
+                    const float y0 = j > 0 ? f[p - sy] : f[p], y1 = j + 1 < l.ny ? f[p + sy] : f[p];
+                    const float z0 = k > 0 ? f[p - sz] : f[p], z1 = k + 1 < l.nz ? f[p + sz] : f[p];
+                    o[p] = f[p] + c * (((x0 + x1) + (y0 + y1)) + (z0 + z1) - 6.0f * f[p]);
+                }
+            });
+            fields[a]->swap(*outs[a]);
+        }
+    }
+}
+
+} // namespace
+
+void initAir(Air& air) {
+    const std::size_t nx = std::size_t(air.cells[0]), ny = std::size_t(air.cells[1]),
+                      nz = std::size_t(air.cells[2]);
+    air.u.assign((nx + 1) * ny * nz, 0.0f);
+    air.v.assign(nx * (ny + 1) * nz, 0.0f);
+    air.w.assign(nx * ny * (nz + 1), 0.0f);
+    air.smoke.assign(nx * ny * nz, 0.0f);
+    air.heat.assign(nx * ny * nz, 0.0f);
+    buildLevels(air);
+    const std::size_t padded = Padded(air.cells).size();
+    air.pressure.assign(padded, 0.0f);
+    AirScratch& s = air.scratch;
+    s.r.assign(padded, 0.0f);
+    s.p.assign(padded, 0.0f);
+    s.q.assign(padded, 0.0f);
+    s.u.assign(air.u.size(), 0.0f);
+    s.v.assign(air.v.size(), 0.0f);
+    s.w.assign(air.w.size(), 0.0f);
+    s.smoke.assign(air.smoke.size(), 0.0f);
+    s.heat.assign(air.heat.size(), 0.0f);
+}
+
+void projectAir(Air& air, WorkerPool& pool) {
+    closeSides(air);
+    AirScratch& s = air.scratch;
+    AirLevel& fine = s.levels[0];
+    const Padded g(air.cells);
+    const auto dx = float(air.cell);
+    // b = -dx^2 div u = -dx (outflow); r = b - A q from last step's q
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            fine.b[row + std::size_t(i)] = -dx * outflow(air, i, j, k);
+        }
+    });
+    const bool singular = allClosed(air);
+    if (singular) {
+        removeMean(air, fine.b, pool);
+    }
+    applyLevel(fine, air.pressure.data(), s.q.data(), pool);
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        for (int i = 0; i < g.nx; ++i) {
+            s.r[row + std::size_t(i)] = fine.b[row + std::size_t(i)] - s.q[row + std::size_t(i)];
+        }
+    });
+    // a cell's divergence is its residual over dx^2
+    const double enough = air.tolerance * double(dx) * double(dx);
+    std::uint32_t it = 0;
+    if (largestCell(air, s.r, pool) > enough) {
+        vcycle(s.levels, 0, s.r.data(), pool);
+        if (singular) {
+            removeMean(air, fine.x, pool);
+        }
+        s.p = fine.x;
+        double rz = dotCells(air, s.r, fine.x, pool);
+        for (; it < kMostIterations; ++it) {
+            applyLevel(fine, s.p.data(), s.q.data(), pool);
+            const double pq = dotCells(air, s.p, s.q, pool);
+            if (!(pq > 0.0)) {
+                break;
+            }
+            const auto alpha = float(rz / pq);
+            axpy(air, air.pressure, alpha, s.p, pool);
+            axpy(air, s.r, -alpha, s.q, pool);
+            if (largestCell(air, s.r, pool) <= enough) {
+                ++it;
+                break;
+            }
+            vcycle(s.levels, 0, s.r.data(), pool);
+            if (singular) {
+                removeMean(air, fine.x, pool);
+            }
+            const double rzNext = dotCells(air, s.r, fine.x, pool);
+            const auto beta = float(rzNext / rz);
+            rz = rzNext;
+            forRows(pool, g.ny, g.nz, [&](int j, int k) {
+                const std::size_t row = g.at(0, j, k);
+                for (int i = 0; i < g.nx; ++i) {
+                    s.p[row + std::size_t(i)] =
+                        fine.x[row + std::size_t(i)] + beta * s.p[row + std::size_t(i)];
+                }
+            });
+        }
+    }
+    air.lastIterations = it;
+    // u -= grad q, the padding's zero beyond an open side (a closed side's faces are set back to zero)
+    const float inv = 1.0f / dx;
+    const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
+    const float* q = air.pressure.data();
+    forRows(pool, ny, nz, [&](int j, int k) {
+        float* u = air.u.data() + std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k);
+        const float* c = q + g.at(0, j, k);
+        for (int i = 0; i <= nx; ++i) {
+            u[i] -= (c[i] - c[i - 1]) * inv;
+        }
+    });
+    forRows(pool, ny + 1, nz, [&](int j, int k) {
+        float* v = air.v.data() + std::size_t(nx) * (std::size_t(j) + std::size_t(ny + 1) * k);
+        const float* c = q + g.at(0, j, k);
+        for (int i = 0; i < nx; ++i) {
+            v[i] -= (c[i] - c[i - g.sx]) * inv;
+        }
+    });
+    forRows(pool, ny, nz + 1, [&](int j, int k) {
+        float* w = air.w.data() + std::size_t(nx) * (std::size_t(j) + std::size_t(ny) * k);
+        const float* c = q + g.at(0, j, k);
+        for (int i = 0; i < nx; ++i) {
+            w[i] -= (c[i] - c[i - g.sy]) * inv;
+        }
+    });
+    closeSides(air);
+    air.divergenceMax = airDivergenceMax(air, pool);
+}
+
+double airDivergenceMax(const Air& air, WorkerPool& pool) {
+    return sumRows(pool, air.cells[1], air.cells[2], Largest{},
+                   [&](int j, int k) {
+                       Largest m;
+                       for (int i = 0; i < air.cells[0]; ++i) {
+                           m.value = std::max(m.value, double(std::abs(outflow(air, i, j, k))));
+                       }
+                       return m;
+                   })
+               .value /
+           air.cell;
+}
+
+void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
+    advect(air, dt, pool);
+    if (air.dissipation > 0.0) {
+        const auto keep = float(1.0 / (1.0 + dt * air.dissipation));
+        for (float& s : air.smoke) {
+            s *= keep;
+        }
+    }
+    if (air.smokeWeight != 0.0 || air.heatLift != 0.0) {
+        buoyancy(air, gravity, dt, pool);
+    }
+    if (air.vorticity > 0.0) {
+        confineVorticity(air, dt, pool);
+    }
+    if (air.viscosity > 0.0) {
+        diffuseVelocity(air, dt, pool);
+    }
+    projectAir(air, pool);
+}
+
+Vec3 airVelocityAt(const Air& air, const Vec3& point) {
+    const Lattices velocity = velocityLattices(air);
+    const Vec3 local = (point - air.origin()) * (1.0 / air.cell);
+    const auto x = float(local.x), y = float(local.y), z = float(local.z);
+    return {velocity.u.at(x, y, z), velocity.v.at(x, y, z), velocity.w.at(x, y, z)};
+}
+
+double airSmokeTotal(const Air& air) {
+    double total = 0.0;
+    for (float s : air.smoke) {
+        total += double(s);
+    }
+    return total * air.cell * air.cell * air.cell;
+}
+
+Vec3 airSmokeCentroid(const Air& air) {
+    double total = 0.0;
+    Vec3 moment;
+    for (int k = 0; k < air.cells[2]; ++k) {
+        for (int j = 0; j < air.cells[1]; ++j) {
+            for (int i = 0; i < air.cells[0]; ++i) {
+                const double s = air.smoke[air.at(i, j, k)];
+                total += s;
+                moment += Vec3{i + 0.5, j + 0.5, k + 0.5} * s;
+            }
+        }
+    }
+    if (!(total > 0.0)) {
+        return air.centre;
+    }
+    return air.origin() + moment * (air.cell / total);
+}
+
+double airKineticEnergy(const Air& air) {
+    double sum = 0.0;
+    for (const std::vector<float>* f : {&air.u, &air.v, &air.w}) {
+        for (float x : *f) {
+            sum += double(x) * double(x);
+        }
+    }
+    return 0.5 * kAirDensity * sum * air.cell * air.cell * air.cell;
+}
+
+} // namespace tumble

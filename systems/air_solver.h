@@ -1,0 +1,45 @@
+#pragma once
+// Stable fluids (Stam 1999) on the air's staggered grid (components/air.h), one fixed step:
+//   1. advection: every face's velocity and every cell's smoke and heat are taken from where the flow
+//      brought them, the point found by following the face's (or cell's) velocity back over the step,
+//      sampled trilinearly (semi-Lagrangian: unconditionally stable; first order, so it smooths);
+//   2. smoke's dissipation, implicit: s / (1 + dt d);
+//   3. forces: buoyancy along gravity, (smoke_weight s - heat_lift (T - mean T)) per unit of gravity's
+//      direction (a uniformly warm atmosphere feels none: Boussinesq, after Fedkiw, Stam and Jensen 2001),
+//      and vorticity confinement, eps dx (N x omega) with N the unit gradient of |omega|;
+//   4. viscosity, explicit, in as many substeps as nu dt / dx^2 <= 1/6 needs;
+//   5. projection: with q = p dt / rho, the discrete Poisson problem -dx^2 Lap q = -dx^2 div u (closed
+//      sides: no flow through them, Neumann; open sides: q = 0 outside, Dirichlet), solved by conjugate
+//      gradients preconditioned with a multigrid V-cycle (cells merged 2 x 2 x 2, weighted Jacobi
+//      smoothing, symmetric), from last step's q, until every cell's divergence is under `tolerance`; then
+//      u -= grad q.
+// Every loop runs over z-slabs of fixed size on the worker pool and every sum adds per-slab partials in
+// slab order, so any thread count gives the same bits.
+
+#include "components/air.h"
+#include "engine/parallel.h"
+
+namespace tumble {
+
+/// Makes the fields (zero) and the solver's levels for the air's grid.
+void initAir(Air& air);
+
+/// One step of dt (the steps above). `gravity` gives buoyancy its direction (straight down when zero).
+void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
+
+/// The projection alone (step 5): the velocity made divergence-free to within the tolerance.
+void projectAir(Air& air, WorkerPool& pool);
+
+/// The largest divergence of a cell (1/s), from the faces as they are.
+double airDivergenceMax(const Air& air, WorkerPool& pool);
+
+/// The velocity at a world point (each component trilinear between its faces; clamped to the box).
+Vec3 airVelocityAt(const Air& air, const Vec3& point);
+
+/// Summaries for the dump: smoke's total (density times m^3), its centroid (world, m; the box's centre
+/// when there is none), the kinetic energy (J, air of 1.2 kg/m^3).
+double airSmokeTotal(const Air& air);
+Vec3 airSmokeCentroid(const Air& air);
+double airKineticEnergy(const Air& air);
+
+} // namespace tumble
