@@ -5,6 +5,7 @@
 // cell's divergence is the difference of its faces' flows and the projection leaves it zero to within the
 // solver's tolerance.
 
+#include "engine/entity.h"
 #include "engine/math.h"
 
 #include <array>
@@ -69,6 +70,19 @@ struct Air {
         return std::size_t(i) +
                std::size_t(cells[0]) * (std::size_t(j) + std::size_t(cells[1]) * std::size_t(k));
     }
+};
+
+/// What feeds an air grid (`air_source`): smoke and heat added every second in a sphere or box about the
+/// entity, and, if given, a velocity imposed on the faces inside it (a fan, a chimney's draught).
+struct AirSource {
+    Entity air;                         ///< the air entity it feeds (resolved at load)
+    bool sphere = true;                 ///< else a box
+    double radius = 0.25;               ///< m, a sphere's
+    Vec3 halfExtents{0.25, 0.25, 0.25}; ///< m, a box's
+    double smoke = 1.0;                 ///< density added a second
+    double heat = 0.0;                  ///< degrees added a second
+    bool drives = false;                ///< whether it imposes `velocity`
+    Vec3 velocity;                      ///< m/s
 };
 
 } // namespace tumble

@@ -18,10 +18,19 @@
 
 namespace tumble {
 
+/// Resolves an entity named by a key of a table (a joint's `a`, `b`): the entity, the null entity when the
+/// key is absent and not required, or a failure that names the key, the table and the nearest name.
+using EntityLookup = std::function<Entity(TableReader& reader, std::string_view key, bool required)>;
+
 /// Reads `[entity.KEY]` and puts the resulting components on the entity.
 struct ComponentLoader {
     std::string key; ///< the scenario key, e.g. "springs"
     std::function<void(TableReader& reader, World& world, Entity entity, const SceneDef& scene)> load;
+    /// If set, called once every entity exists (before the joints), with the same table and a lookup of
+    /// entities by name: for a component that names another entity (an air source's air). `load` must
+    /// have read the key too, or the table's check of unknown keys refuses it.
+    std::function<void(TableReader& reader, World& world, Entity entity, const EntityLookup& lookup)> link =
+        {};
 };
 
 /// How one component type appears in dumps and in the state hash.
@@ -56,10 +65,6 @@ struct Retune {
     /// Writes into the live component what differs between before and after (and nothing else).
     std::function<void(World& live, Entity, const World& before, Entity, const World& after, Entity)> patch;
 };
-
-/// Resolves an entity named by a key of a table (a joint's `a`, `b`): the entity, the null entity when the
-/// key is absent and not required, or a failure that names the key, the table and the nearest name.
-using EntityLookup = std::function<Entity(TableReader& reader, std::string_view key, bool required)>;
 
 /// Reads one [[joint]] table after every entity exists, and makes what it describes.
 using JointLoader =

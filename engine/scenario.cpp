@@ -314,8 +314,17 @@ componentTables(const toml::table& table, const std::string& where, const LoadCo
     return components;
 }
 
+/// A component table to link once every entity exists (ComponentLoader::link).
+struct PendingLink {
+    const ComponentLoader* loader;
+    const toml::table* table;
+    std::string where;
+    Entity entity;
+};
+
 void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
-                  const SceneDef& scene, World& world, std::map<std::string, Entity>& byName) {
+                  const SceneDef& scene, World& world, std::map<std::string, Entity>& byName,
+                  std::vector<PendingLink>& links) {
     const toml::node* node = root.get("entity");
     if (!node) {
         return;
@@ -373,12 +382,45 @@ void readEntities(const toml::table& root, const LoadContext& ctx, const Catalog
                 TableReader cr(*sub, where + " [" + loader->key + "]", ctx);
                 loader->load(cr, world, entity, scene);
                 cr.finish();
+                if (loader->link) {
+                    links.push_back({loader, sub, where + " [" + loader->key + "]", entity});
+                }
             }
         }
     }
 }
 
-// ---- joints
+// ---- links and joints
+
+/// Entities by name for a table's key, failing at the key with the nearest name.
+EntityLookup lookupIn(const std::map<std::string, Entity>& byName) {
+    return [&byName](TableReader& r, std::string_view key, bool required) {
+        if (!required && !r.has(key)) {
+            return kNullEntity;
+        }
+        const std::string name = r.requiredString(key);
+        const auto found = byName.find(name);
+        if (found == byName.end()) {
+            std::vector<std::string> names;
+            for (const auto& [n, e] : byName) {
+                names.push_back(n);
+            }
+            const std::string near = nearestName(name, names);
+            r.fail(key, "no entity named '" + name + "'" +
+                            (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        }
+        return found->second;
+    };
+}
+
+void linkEntities(const std::vector<PendingLink>& links, const LoadContext& ctx, World& world,
+                  const std::map<std::string, Entity>& byName) {
+    const EntityLookup lookup = lookupIn(byName);
+    for (const PendingLink& l : links) {
+        TableReader r(*l.table, l.where, ctx);
+        l.loader->link(r, world, l.entity, lookup);
+    }
+}
 
 void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& catalog,
                 const SceneDef& scene, World& world, const std::map<std::string, Entity>& byName) {
@@ -396,23 +438,7 @@ void readJoints(const toml::table& root, const LoadContext& ctx, const Catalog& 
     if (list->size() > Limits::kMaxArray) {
         ctx.fail(node, "too many joints (at most " + std::to_string(Limits::kMaxArray) + ")");
     }
-    const EntityLookup lookup = [&byName](TableReader& r, std::string_view key, bool required) {
-        if (!required && !r.has(key)) {
-            return kNullEntity;
-        }
-        const std::string name = r.requiredString(key);
-        const auto found = byName.find(name);
-        if (found == byName.end()) {
-            std::vector<std::string> names;
-            for (const auto& [n, e] : byName) {
-                names.push_back(n);
-            }
-            const std::string near = nearestName(name, names);
-            r.fail(key, "no entity named '" + name + "'" +
-                            (near.empty() ? "" : " (did you mean '" + near + "'?)"));
-        }
-        return found->second;
-    };
+    const EntityLookup lookup = lookupIn(byName);
     for (const toml::node& item : *list) {
         TableReader r(*item.as_table(), "[[joint]]", ctx);
         catalog.jointLoader()(r, world, scene, lookup);
@@ -689,7 +715,9 @@ Scenario load(const Catalog& catalog, const std::string& path, std::string text,
     }
     readSections(root, ctx, sc.scene);
     std::map<std::string, Entity> byName;
-    readEntities(root, ctx, catalog, sc.scene, world, byName);
+    std::vector<PendingLink> links;
+    readEntities(root, ctx, catalog, sc.scene, world, byName, links);
+    linkEntities(links, ctx, world, byName);
     readJoints(root, ctx, catalog, sc.scene, world, byName);
     if (!checkSets) {
         return sc; // a set event's scratch load (engine/retune.h): the scene alone, its events were read

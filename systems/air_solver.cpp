@@ -309,6 +309,12 @@ void axpy(const Air& air, std::vector<float>& y, float alpha, const std::vector<
 
 // ---- advection and forces ----
 
+/// Where a trilinear sample falls on a lattice: its first corner and the weights along each axis.
+struct Corner {
+    std::size_t base;
+    float tx, ty, tz;
+};
+
 /// A field sampled on a lattice: value (a, b, c) sits at (a + ox, b + oy, c + oz) in cell units from the
 /// box's lowest corner.
 struct Lattice {
@@ -316,20 +322,25 @@ struct Lattice {
     int nx, ny, nz;
     float ox, oy, oz;
 
-    /// Trilinear at (x, y, z) in cell units, clamped to the lattice.
-    float at(float x, float y, float z) const {
+    /// The corner and weights of the point (x, y, z) in cell units, clamped to the lattice.
+    Corner corner(float x, float y, float z) const {
         const float fx = std::clamp(x - ox, 0.0f, float(nx - 1));
         const float fy = std::clamp(y - oy, 0.0f, float(ny - 1));
         const float fz = std::clamp(z - oz, 0.0f, float(nz - 1));
         const int i = std::min(int(fx), nx - 2), j = std::min(int(fy), ny - 2), k = std::min(int(fz), nz - 2);
-        const float tx = fx - float(i), ty = fy - float(j), tz = fz - float(k);
-        const std::size_t sx = 1, sy = std::size_t(nx), sz = std::size_t(nx) * std::size_t(ny);
-        const float* p = f + std::size_t(i) + sy * std::size_t(j) + sz * std::size_t(k);
-        auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
-        const float x00 = lerp(p[0], p[sx], tx), x10 = lerp(p[sy], p[sy + sx], tx);
-        const float x01 = lerp(p[sz], p[sz + sx], tx), x11 = lerp(p[sz + sy], p[sz + sy + sx], tx);
-        return lerp(lerp(x00, x10, ty), lerp(x01, x11, ty), tz);
+        return {std::size_t(i) + std::size_t(nx) * (std::size_t(j) + std::size_t(ny) * std::size_t(k)),
+                fx - float(i), fy - float(j), fz - float(k)};
     }
+    /// Trilinear at a corner (of any field on this lattice).
+    float at(const float* field, const Corner& c) const {
+        const std::size_t sy = std::size_t(nx), sz = std::size_t(nx) * std::size_t(ny);
+        const float* p = field + c.base;
+        auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
+        const float x00 = lerp(p[0], p[1], c.tx), x10 = lerp(p[sy], p[sy + 1], c.tx);
+        const float x01 = lerp(p[sz], p[sz + 1], c.tx), x11 = lerp(p[sz + sy], p[sz + sy + 1], c.tx);
+        return lerp(lerp(x00, x10, c.ty), lerp(x01, x11, c.ty), c.tz);
+    }
+    float at(float x, float y, float z) const { return at(f, corner(x, y, z)); }
 };
 
 struct Lattices {
@@ -343,18 +354,82 @@ Lattices velocityLattices(const Air& air) {
             {air.w.data(), nx, ny, nz + 1, 0.5f, 0.5f, 0.0f}};
 }
 
-/// Every point of `out`'s lattice takes `from` at the point the flow brought there over the step: the
-/// point followed back along the velocity there (in cells a step: `scale` = dt / dx).
-void advectLattice(const Lattices& velocity, const Lattice& from, float* out, float scale, WorkerPool& pool) {
+/// The two indices (or one) of a lattice along an axis around a point offset from index i by d half
+/// cells (d = -1, 0 or 1), clamped to [0, n).
+template <int D>
+void around(int i, int n, int (&out)[2]) {
+    out[0] = std::clamp(D < 0 ? i - 1 : i, 0, n - 1);
+    out[1] = std::clamp(D > 0 ? i + 1 : i, 0, n - 1);
+}
+
+/// Lattice c at a point of another lattice whose offsets differ by (DX, DY, DZ) half cells, at that
+/// lattice's index (i, j, k): the mean of the two values either side along each axis where the point is
+/// half way, which is what trilinear sampling there gives, without the search for the corner.
+template <int DX, int DY, int DZ>
+float aligned(const Lattice& c, int i, int j, int k) {
+    int is[2], js[2], ks[2];
+    around<DX>(i, c.nx, is);
+    around<DY>(j, c.ny, js);
+    around<DZ>(k, c.nz, ks);
+    constexpr int cx = DX != 0 ? 2 : 1, cy = DY != 0 ? 2 : 1, cz = DZ != 0 ? 2 : 1;
+    float sum = 0.0f;
+    for (int z = 0; z < cz; ++z) {
+        for (int y = 0; y < cy; ++y) {
+            for (int x = 0; x < cx; ++x) {
+                sum += c.f[std::size_t(is[x]) +
+                           std::size_t(c.nx) * (std::size_t(js[y]) + std::size_t(c.ny) * ks[z])];
+            }
+        }
+    }
+    return sum * (1.0f / float(cx * cy * cz));
+}
+
+/// The velocity (in cells a step) at point (i, j, k) of lattice L: 0 the u faces, 1 the v faces, 2 the w
+/// faces, 3 the cells' centres.
+template <int L>
+void velocityAt(const Lattices& vel, int i, int j, int k, float scale, float& x, float& y, float& z) {
+    const auto index = [](const Lattice& l, int a, int b, int c) {
+        return std::size_t(a) + std::size_t(l.nx) * (std::size_t(b) + std::size_t(l.ny) * c);
+    };
+    if constexpr (L == 0) {
+        x = vel.u.f[index(vel.u, i, j, k)];
+        y = aligned<-1, 1, 0>(vel.v, i, j, k);
+        z = aligned<-1, 0, 1>(vel.w, i, j, k);
+    } else if constexpr (L == 1) {
+        x = aligned<1, -1, 0>(vel.u, i, j, k);
+        y = vel.v.f[index(vel.v, i, j, k)];
+        z = aligned<0, -1, 1>(vel.w, i, j, k);
+    } else if constexpr (L == 2) {
+        x = aligned<1, 0, -1>(vel.u, i, j, k);
+        y = aligned<0, 1, -1>(vel.v, i, j, k);
+        z = vel.w.f[index(vel.w, i, j, k)];
+    } else {
+        x = aligned<1, 0, 0>(vel.u, i, j, k);
+        y = aligned<0, 1, 0>(vel.v, i, j, k);
+        z = aligned<0, 0, 1>(vel.w, i, j, k);
+    }
+    x *= scale;
+    y *= scale;
+    z *= scale;
+}
+
+/// Every point of lattice L (whose shape `from` has) takes `from`'s fields (one, or two sharing the
+/// weights: smoke and heat) at the point the flow brought there over the step: the point followed back
+/// along the velocity there (`scale` = dt / dx, in cells).
+template <int L>
+void advectLattice(const Lattices& velocity, const Lattice& from, const float* second, float* out,
+                   float* out2, float scale, WorkerPool& pool) {
     forRows(pool, from.ny, from.nz, [&](int j, int k) {
-        float* o = out + std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k);
+        const std::size_t row = std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k);
         const float y = float(j) + from.oy, z = float(k) + from.oz;
         for (int i = 0; i < from.nx; ++i) {
-            const float x = float(i) + from.ox;
-            const float bx = x - scale * velocity.u.at(x, y, z);
-            const float by = y - scale * velocity.v.at(x, y, z);
-            const float bz = z - scale * velocity.w.at(x, y, z);
-            o[i] = from.at(bx, by, bz);
+            float vx, vy, vz;
+            velocityAt<L>(velocity, i, j, k, scale, vx, vy, vz);
+            const Corner c = from.corner(float(i) + from.ox - vx, y - vy, z - vz);
+            out[row + std::size_t(i)] = from.at(from.f, c);
+            if (second != nullptr) {
+                out2[row + std::size_t(i)] = from.at(second, c);
+            }
         }
     });
 }
@@ -364,11 +439,11 @@ void advect(Air& air, double dt, WorkerPool& pool) {
     const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
     const Lattices velocity = velocityLattices(air);
     const auto scale = float(dt / air.cell);
-    advectLattice(velocity, velocity.u, s.u.data(), scale, pool);
-    advectLattice(velocity, velocity.v, s.v.data(), scale, pool);
-    advectLattice(velocity, velocity.w, s.w.data(), scale, pool);
-    advectLattice(velocity, {air.smoke.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, s.smoke.data(), scale, pool);
-    advectLattice(velocity, {air.heat.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, s.heat.data(), scale, pool);
+    advectLattice<0>(velocity, velocity.u, nullptr, s.u.data(), nullptr, scale, pool);
+    advectLattice<1>(velocity, velocity.v, nullptr, s.v.data(), nullptr, scale, pool);
+    advectLattice<2>(velocity, velocity.w, nullptr, s.w.data(), nullptr, scale, pool);
+    advectLattice<3>(velocity, {air.smoke.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, air.heat.data(),
+                     s.smoke.data(), s.heat.data(), scale, pool);
     air.u.swap(s.u);
     air.v.swap(s.v);
     air.w.swap(s.w);

@@ -1,5 +1,6 @@
 #include "systems/builtin.h"
 
+#include "components/air.h"
 #include "components/force_field.h"
 #include "components/grab.h"
 #include "components/joint.h"
@@ -13,6 +14,7 @@
 #include "engine/render_output.h"
 #include "engine/run_report.h"
 #include "engine/transform.h"
+#include "systems/air_system.h"
 #include "systems/box2d_bridge.h"
 #include "systems/bullet_bridge.h"
 #include "systems/cloth_collision.h"
@@ -64,6 +66,7 @@ const std::vector<SystemEntry>& builtinSystems() {
          accessOf<Reads<RigidBody2D, Transform>, Writes<SpringNetwork, ParticleEmitter>>()},
         {"water", Phase::Fixed, stepWater,
          accessOf<Reads<SceneDef, Name, Transform>, Writes<Water, RigidBody, RigidBody2D, RunReport>>()},
+        {"air", Phase::Fixed, advanceAir, accessOf<Reads<SceneDef, Transform, AirSource>, Writes<Air>>()},
         {"render", Phase::Frame, renderWorld,
          accessOf<Reads<SceneDef, SpringNetwork, RigidBody, RigidBody2D, Transform, Water, ParticleEmitter,
                         RenderHistory, PoseHistory>,
@@ -80,6 +83,7 @@ void registerBuiltinSystems(Catalog& catalog) {
     registerSpringSystem(catalog);
     registerRigidSystem(catalog);
     registerWaterSystem(catalog);
+    registerAirSystem(catalog);
     for (const SystemEntry& s : builtinSystems()) {
         catalog.addSystem(s);
     }

@@ -3,6 +3,7 @@
 
 #include "engine/parallel.h"
 #include "systems/air_solver.h"
+#include "systems/air_system.h"
 
 #include <gtest/gtest.h>
 
@@ -239,6 +240,35 @@ TEST(Air, AnyThreadCountGivesTheSameBits) {
         EXPECT_EQ(many.heat, one.heat);
         EXPECT_EQ(many.pressure, one.pressure);
     }
+}
+
+// A source adds smoke * dt to each cell whose centre is inside its sphere (the sphere's volume times it in
+// all, within the voxels' 3%), imposes its velocity on the faces inside and leaves the others; one smaller
+// than a cell feeds the cell it is in.
+TEST(Air, ASourceFeedsItsShape) {
+    Air air = makeAir({24, 24, 24}, 0.05, AirBorder::Closed);
+    AirSource source;
+    source.radius = 0.3;
+    source.smoke = 2.0;
+    source.heat = 1.0;
+    source.drives = true;
+    source.velocity = {0.0, 1.5, -0.5};
+    feedAir(air, source, {0.01, 0.02, 0.0}, 0.1);
+    const double pi = std::acos(-1.0), volume = 4.0 / 3.0 * pi * 0.3 * 0.3 * 0.3;
+    EXPECT_NEAR(airSmokeTotal(air), 2.0 * 0.1 * volume, 0.03 * 2.0 * 0.1 * volume);
+    const Vec3 inside = airVelocityAt(air, {0.0, 0.0, 0.0});
+    EXPECT_NEAR(inside.x, 0.0, 1e-6);
+    EXPECT_NEAR(inside.y, 1.5, 1e-6);
+    EXPECT_NEAR(inside.z, -0.5, 1e-6);
+    EXPECT_EQ(airVelocityAt(air, {0.5, 0.0, 0.0}).y, 0.0f);
+
+    Air small = makeAir({8, 8, 8}, 0.1, AirBorder::Closed);
+    AirSource tiny;
+    tiny.radius = 0.01;
+    tiny.smoke = 1.0;
+    feedAir(small, tiny, {0.12, -0.05, 0.03}, 0.5);
+    EXPECT_EQ(small.smoke[small.at(5, 3, 4)], 0.5f);
+    EXPECT_NEAR(airSmokeTotal(small), 0.5 * 0.001, 1e-12);
 }
 
 } // namespace

@@ -22,12 +22,12 @@ TEST(BuiltinSystems, RunInTheStatedOrder) {
         EXPECT_FALSE(s.access.all) << s.name << " declares no access of its own";
     }
     // force fields -> emitters -> particles -> springs/cloth -> collisions -> rigid bridges -> what Box2D's
-    // step left inside its bodies -> water; the renderer's history before them all, the mouse spring with
-    // the forces
+    // step left inside its bodies -> water -> air; the renderer's history before them all, the mouse spring
+    // with the forces
     EXPECT_EQ(fixed,
               (std::vector<std::string>{"render_history", "force_fields", "mouse_spring", "emitters",
                                         "particles", "springs", "collisions", "cloth_collision", "rigid_in",
-                                        "bullet", "box2d", "rigid_out", "collisions_2d", "water"}));
+                                        "bullet", "box2d", "rigid_out", "collisions_2d", "water", "air"}));
     EXPECT_EQ(frame, (std::vector<std::string>{"render"}));
     // the simulation runs exactly the table, after the engine's event input
     auto sim = test::makeSimulation("[scene]\nname = \"empty\"\n");
@@ -59,6 +59,8 @@ TEST(BuiltinSystems, WhatRunsSideBySideIsWhatTheArchitectureSays) {
     EXPECT_TRUE(waitsFor("rigid_out", "bullet"));
     EXPECT_TRUE(waitsFor("water", "rigid_out"));
     EXPECT_TRUE(waitsFor("collisions_2d", "rigid_out"));
+    EXPECT_FALSE(waitsFor("air", "water"));
+    EXPECT_TRUE(waitsFor("air", "rigid_out")); // a source moves with its entity's transform
 }
 
 TEST(BuiltinSystems, OnlyTheRendererTouchesRenderState) {

@@ -470,6 +470,41 @@ std::vector<BadCase> cases() {
          {},
          13,
          "unknown key 'key'"},
+        // air grids and their sources
+        {"air_cells_not_cubes",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\ncells = [8, 8, 8]\nsize = [1.0, 2.0, 1.0]\n",
+         {},
+         7,
+         "the cells must be cubes: size / cells gives 0.125, 0.25 and 0.125 m"},
+        {"air_source_outside",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\ncells = [8, 8, 8]\nsize = [1.0, 1.0, 1.0]\n" +
+             "[[entity]]\nname = \"fan\"\n[entity.transform]\nposition = [0.0, 3.0, 0.0]\n"
+             "[entity.air_source]\nair = \"room\"\n",
+         {},
+         13,
+         "the source at (0, 3, 0) is outside air 'room'"},
+        {"air_source_names_no_air",
+         kScene + "[[entity]]\nname = \"fan\"\n[entity.air_source]\nair = \"fan\"\n",
+         {},
+         6,
+         "entity 'fan' has no [entity.air] for this source to feed"},
+        {"air_source_names_nobody",
+         kScene + "[[entity]]\nname = \"fan\"\n[entity.air_source]\nair = \"rooom\"\n" +
+             "[[entity]]\nname = \"room\"\n[entity.air]\n",
+         {},
+         6,
+         "no entity named 'rooom' (did you mean 'room'?)"},
+        {"air_border_side_typo",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\nborder = { \"+q\" = \"open\" }\n",
+         {},
+         6,
+         "unknown key '+q'"},
+        {"air_grid_over_the_memory_cap",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\ncells = [1000, 1000, 1000]\n"
+                  "size = [1.0, 1.0, 1.0]\n",
+         {},
+         6,
+         "entity 'room' [air] (1000000000 cells) needs about 104.3 GiB"},
         // step, every vertex facing hundreds of triangles within the thickness
         {"self_collision_thicker_than_spacing",
          kScene +

@@ -1,0 +1,254 @@
+#include "systems/air_system.h"
+
+#include "engine/name.h"
+#include "engine/parallel.h"
+#include "engine/profiler.h"
+#include "engine/scene.h"
+#include "engine/transform.h"
+#include "systems/air_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace tumble {
+
+namespace {
+
+constexpr double kMaxCellsPerSide = 1024.0;
+/// Bytes a cell holds: the fields and the advection's copies (10 floats), the projection's padded vectors
+/// and its levels (about 10 floats), the vorticity's scratch (7 floats); measured 108 at 64^3.
+constexpr std::uint64_t kBytesPerCell = 112;
+
+constexpr std::array<std::string_view, 6> kSides{"-x", "+x", "-y", "+y", "-z", "+z"};
+
+void readBorder(TableReader& r, Air& air) {
+    const toml::node* node = r.node("border");
+    if (!node) {
+        return;
+    }
+    if (node->is_string()) {
+        const AirBorder b =
+            r.choice("border", "closed", {"closed", "open"}) == "open" ? AirBorder::Open : AirBorder::Closed;
+        air.border.fill(b);
+        return;
+    }
+    const toml::table* sides = r.subtable("border");
+    if (!sides) {
+        r.fail("border", "'border' is \"closed\", \"open\", or a table of sides, e.g. border = { \"+y\" = "
+                         "\"open\" } (sides -x +x -y +y -z +z; the others closed)");
+    }
+    TableReader s(*sides, r.where() + " border", r.context());
+    for (std::size_t side = 0; side < 6; ++side) {
+        air.border[side] = s.choice(kSides[side], "closed", {"closed", "open"}) == "open" ? AirBorder::Open
+                                                                                          : AirBorder::Closed;
+    }
+    s.finish();
+}
+
+void loadAir(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    Air air;
+    const auto cells = r.vector<3>("cells", {32.0, 32.0, 32.0}, 4.0, kMaxCellsPerSide);
+    for (std::size_t a = 0; a < 3; ++a) {
+        if (cells[a] != std::floor(cells[a])) {
+            r.fail("cells", "'cells' are whole numbers of cells along x, y and z, each 4 to 1024");
+        }
+        air.cells[a] = int(cells[a]);
+    }
+    const auto size = r.vector<3>("size", {4.0, 4.0, 4.0}, 1e-3, 1e5);
+    air.cell = size[0] / cells[0];
+    for (std::size_t a = 1; a < 3; ++a) {
+        if (std::abs(size[a] / cells[a] - air.cell) > 1e-6 * air.cell) {
+            char text[300];
+            std::snprintf(
+                text, sizeof text,
+                "the cells must be cubes: size / cells gives %g, %g and %g m along x, y and z; make "
+                "them equal (e.g. size = [%g, %g, %g])",
+                size[0] / cells[0], size[1] / cells[1], size[2] / cells[2], air.cell * cells[0],
+                air.cell * cells[1], air.cell * cells[2]);
+            r.fail("size", text);
+        }
+    }
+    readBorder(r, air);
+    air.vorticity = r.number("vorticity", 0.0, 0.0, 100.0);
+    const auto buoyancy = r.vector<2>("buoyancy", {0.0, 0.0}, 0.0, 1e4);
+    air.smokeWeight = buoyancy[0];
+    air.heatLift = buoyancy[1];
+    air.dissipation = r.number("dissipation", 0.0, 0.0, 1e4);
+    air.viscosity = r.number("viscosity", 0.0, 0.0, 1e3);
+    air.tolerance = r.number("tolerance", 1e-3, 1e-9, 1e3);
+    air.dumpFields = r.boolean("dump_fields", false);
+    const std::uint64_t n = std::uint64_t(air.cellCount());
+    r.charge("cells", n * kBytesPerCell, r.where() + " (" + std::to_string(n) + " cells)");
+    air.centre = world.get<Transform>(entity).position;
+    initAir(air);
+    world.emplace<Air>(entity, std::move(air));
+}
+
+void loadAirSource(TableReader& r, World& world, Entity entity, const SceneDef&) {
+    AirSource s;
+    r.requiredString("air"); // resolved by linkAirSource, once every entity exists
+    s.sphere = r.choice("shape", "sphere", {"sphere", "box"}) == "sphere";
+    if (s.sphere) {
+        if (r.has("half_extents")) {
+            r.fail("half_extents",
+                   "'half_extents' is a box's; a sphere takes 'radius' (or set shape = \"box\")");
+        }
+        s.radius = r.number("radius", 0.25, 1e-6, 1e5);
+    } else {
+        if (r.has("radius")) {
+            r.fail("radius", "'radius' is a sphere's; a box takes 'half_extents' = [x, y, z]");
+        }
+        const auto h = r.vector<3>("half_extents", {0.25, 0.25, 0.25}, 1e-6, 1e5);
+        s.halfExtents = {h[0], h[1], h[2]};
+    }
+    s.smoke = r.number("smoke", 1.0, 0.0, 1e6);
+    s.heat = r.number("heat", 0.0, -1e6, 1e6);
+    if (r.has("velocity")) {
+        s.drives = true;
+        const auto v = r.vector<3>("velocity", {0.0, 0.0, 0.0}, -1e4, 1e4);
+        s.velocity = {v[0], v[1], v[2]};
+    }
+    world.emplace<AirSource>(entity, s);
+}
+
+void linkAirSource(TableReader& r, World& world, Entity entity, const EntityLookup& lookup) {
+    const Entity air = lookup(r, "air", true);
+    const std::string& name = world.get<Name>(air).value;
+    if (!world.has<Air>(air)) {
+        r.fail("air", "entity '" + name + "' has no [entity.air] for this source to feed");
+    }
+    const Air& a = world.get<Air>(air);
+    const Vec3 at = world.get<Transform>(entity).position;
+    const Vec3 lo = a.origin(),
+               hi = a.origin() + Vec3{a.cells[0] * a.cell, a.cells[1] * a.cell, a.cells[2] * a.cell};
+    if (!(at.x >= lo.x && at.x <= hi.x && at.y >= lo.y && at.y <= hi.y && at.z >= lo.z && at.z <= hi.z)) {
+        char text[320];
+        std::snprintf(
+            text, sizeof text,
+            "the source at (%g, %g, %g) is outside air '%s', whose box runs from (%g, %g, %g) to (%g, "
+            "%g, %g); move it (its [transform] position) inside",
+            at.x, at.y, at.z, name.c_str(), lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+        r.fail("air", text);
+    }
+    world.get<AirSource>(entity).air = air;
+}
+
+bool inside(const AirSource& s, const Vec3& p) {
+    if (s.sphere) {
+        return dot(p, p) <= s.radius * s.radius;
+    }
+    return std::abs(p.x) <= s.halfExtents.x && std::abs(p.y) <= s.halfExtents.y &&
+           std::abs(p.z) <= s.halfExtents.z;
+}
+
+void dumpAir(const Air& a, JsonWriter& out) {
+    out.key("cells").beginArray().value(a.cells[0]).value(a.cells[1]).value(a.cells[2]).endArray();
+    out.key("smoke_total").value(airSmokeTotal(a));
+    const Vec3 c = airSmokeCentroid(a);
+    const double centroid[3] = {c.x, c.y, c.z};
+    out.key("smoke_centroid").numbers(centroid);
+    out.key("divergence_max").value(a.divergenceMax);
+    out.key("kinetic_energy").value(airKineticEnergy(a));
+    if (a.dumpFields) {
+        const std::pair<const char*, const std::vector<float>*> fields[] = {
+            {"u", &a.u}, {"v", &a.v}, {"w", &a.w}, {"smoke", &a.smoke}, {"heat", &a.heat}};
+        for (const auto& [name, field] : fields) {
+            const std::vector<double> values(field->begin(), field->end());
+            out.key(name).numbers(values.data(), values.size());
+        }
+    }
+}
+
+void hashAir(const Air& a, Hasher& h) {
+    h.add(a.u);
+    h.add(a.v);
+    h.add(a.w);
+    h.add(a.smoke);
+    h.add(a.heat);
+    h.add(a.pressure);
+}
+
+} // namespace
+
+void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
+    const Vec3 reach = source.sphere ? Vec3{source.radius, source.radius, source.radius} : source.halfExtents;
+    const Vec3 origin = air.origin();
+    int lo[3], hi[3];
+    const double from[3] = {at.x - reach.x - origin.x, at.y - reach.y - origin.y, at.z - reach.z - origin.z};
+    const double to[3] = {at.x + reach.x - origin.x, at.y + reach.y - origin.y, at.z + reach.z - origin.z};
+    for (std::size_t a = 0; a < 3; ++a) {
+        lo[a] = std::clamp(int(std::floor(from[a] / air.cell)) - 1, 0, air.cells[a]);
+        hi[a] = std::clamp(int(std::ceil(to[a] / air.cell)) + 1, 0, air.cells[a]);
+    }
+    const auto smoke = float(source.smoke * dt), heat = float(source.heat * dt);
+    int fed = 0;
+    for (int k = lo[2]; k < hi[2]; ++k) {
+        for (int j = lo[1]; j < hi[1]; ++j) {
+            for (int i = lo[0]; i < hi[0]; ++i) {
+                const Vec3 p = origin + Vec3{i + 0.5, j + 0.5, k + 0.5} * air.cell;
+                if (inside(source, p - at)) {
+                    air.smoke[air.at(i, j, k)] += smoke;
+                    air.heat[air.at(i, j, k)] += heat;
+                    ++fed;
+                }
+            }
+        }
+    }
+    if (fed == 0) {
+        // a shape smaller than a cell: the cell it is in
+        int c[3];
+        const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
+        for (std::size_t a = 0; a < 3; ++a) {
+            c[a] = std::clamp(int(std::floor(local[a] / air.cell)), 0, air.cells[a] - 1);
+        }
+        air.smoke[air.at(c[0], c[1], c[2])] += smoke;
+        air.heat[air.at(c[0], c[1], c[2])] += heat;
+    }
+    if (!source.drives) {
+        return;
+    }
+    // the faces inside: each component on its own faces (the box's sides' faces too)
+    std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
+    const double speed[3] = {source.velocity.x, source.velocity.y, source.velocity.z};
+    for (int a = 0; a < 3; ++a) {
+        std::array<int, 3> n = air.cells;
+        n[std::size_t(a)] += 1;
+        for (int k = lo[2]; k < std::min(hi[2] + (a == 2), n[2]); ++k) {
+            for (int j = lo[1]; j < std::min(hi[1] + (a == 1), n[1]); ++j) {
+                for (int i = lo[0]; i < std::min(hi[0] + (a == 0), n[0]); ++i) {
+                    const Vec3 p = origin + Vec3{i + (a == 0 ? 0.0 : 0.5), j + (a == 1 ? 0.0 : 0.5),
+                                                 k + (a == 2 ? 0.0 : 0.5)} *
+                                                air.cell;
+                    if (inside(source, p - at)) {
+                        (*faces[a])[std::size_t(i) +
+                                    std::size_t(n[0]) * (std::size_t(j) + std::size_t(n[1]) * k)] =
+                            float(speed[a]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+void advanceAir(World& world, const StepContext& ctx) {
+    const auto& g = world.resource<SceneDef>().gravity;
+    const Vec3 gravity{g[0], g[1], g[2]};
+    {
+        ProfileStage stage(ctx.profiler, "air.sources");
+        world.view<const Transform, const AirSource>().each(
+            [&](Entity, const Transform& t, const AirSource& s) {
+                feedAir(world.get<Air>(s.air), s, t.position, ctx.dt);
+            });
+    }
+    ProfileStage stage(ctx.profiler, "air.step");
+    world.view<Air>().each([&](Entity, Air& air) { stepAir(air, gravity, ctx.dt, poolOr(ctx.pool)); });
+}
+
+void registerAirSystem(Catalog& catalog) {
+    catalog.addComponent({"air", loadAir, {}});
+    catalog.addComponent({"air_source", loadAirSource, linkAirSource});
+    catalog.addState<Air>("air", dumpAir, hashAir);
+}
+
+} // namespace tumble

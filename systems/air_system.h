@@ -1,0 +1,26 @@
+#pragma once
+// Air on a grid in the scene (README, "Air"): the `air` component (a box of cubic cells advanced by
+// stable fluids, systems/air_solver.h) and the `air_source` component that feeds one (smoke, heat and a
+// velocity in a sphere or box about its entity). Each fixed step: the sources add what they add, then
+// every air grid takes its step. System: reads SceneDef, Transform and AirSource; writes Air. Phase:
+// fixed, after the water. Dump kind "air": `cells`, `smoke_total`, `smoke_centroid`, `divergence_max`,
+// `kinetic_energy`, and with `dump_fields = true` the fields `u`, `v`, `w`, `smoke`, `heat`.
+
+#include "components/air.h"
+#include "engine/catalog.h"
+#include "engine/step_context.h"
+#include "engine/world.h"
+
+namespace tumble {
+
+/// One fixed step of every air grid, its sources first.
+void advanceAir(World& world, const StepContext& ctx);
+
+/// Adds what a source at `at` gives its air over dt: smoke and heat to the cells whose centres are inside
+/// its shape (the cell holding `at` when none is), and its velocity on the faces inside it.
+void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt);
+
+/// Registers the `air` and `air_source` components and the dump kind "air".
+void registerAirSystem(Catalog& catalog);
+
+} // namespace tumble
