@@ -50,6 +50,8 @@ struct Air {
     double dissipation = 0.0; ///< 1/s, smoke's decay
     double viscosity = 0.0;   ///< m^2/s
     double tolerance = 1e-3;  ///< 1/s: the largest divergence a cell keeps after the projection
+    double coefficient = 1.0; ///< how cloth and masses feel it, as a wind field's: N s/m per mass, N s/m^3
+                              ///< per area on cloth
     bool dumpFields = false;  ///< dump the whole fields, not only their summary
 
     // the fields, x fastest, then y, then z

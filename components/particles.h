@@ -7,11 +7,13 @@
 // Particles are light: float state, no mass of their own (forces act on them as on a 1 kg body), colour
 // and size derived from age over lifetime, so the pool holds nothing the renderer cannot compute.
 
+#include "engine/entity.h"
 #include "engine/math.h"
 #include "engine/random.h"
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace tumble {
@@ -45,10 +47,11 @@ struct EmitterDef {
     std::array<double, 2> lifetime{2.0, 3.0}; ///< s, uniform in range
     std::array<double, 2> speed{4.0, 6.0};    ///< m/s, uniform in range
     std::uint32_t maxParticles = 100000;      ///< capacity; births beyond it are dropped and counted
-    double drag = 0.0;                        ///< 1/s, acceleration -drag v
-    bool collide = true;                      ///< against static colliders
-    double restitution = 0.4;                 ///< of the normal speed, on collision
-    double friction = 0.3;                    ///< Coulomb coefficient, on collision
+    double drag = 0.0;                        ///< 1/s, acceleration -drag (v - the air's velocity)
+    std::string airName;      ///< the air grid the particles ride (drag pulls them to its velocity), or none
+    bool collide = true;      ///< against static colliders
+    double restitution = 0.4; ///< of the normal speed, on collision
+    double friction = 0.3;    ///< Coulomb coefficient, on collision
     std::array<float, 4> colorStart{1.0f, 1.0f, 1.0f, 1.0f}; ///< RGBA at birth
     std::array<float, 4> colorEnd{1.0f, 1.0f, 1.0f, 0.0f};   ///< RGBA at death
     std::array<float, 2> size{0.05f, 0.05f};                 ///< m, at birth and at death
@@ -59,6 +62,7 @@ struct EmitterDef {
 /// any number of threads with the same bits.
 struct ParticleEmitter {
     EmitterDef def;
+    Entity air;  ///< the air grid named by def.airName (resolved at load), or none
     Vec3 origin; ///< m, the entity's position
     ParticlePool pool;
     std::uint64_t seed = 0;         ///< the key of this emitter's draws, from the scene seed and its name

@@ -763,6 +763,12 @@ void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     projectAir(air, pool);
 }
 
+bool airContains(const Air& air, const Vec3& point) {
+    const Vec3 local = point - air.origin();
+    return local.x >= 0.0 && local.y >= 0.0 && local.z >= 0.0 && local.x <= air.cells[0] * air.cell &&
+           local.y <= air.cells[1] * air.cell && local.z <= air.cells[2] * air.cell;
+}
+
 Vec3 airVelocityAt(const Air& air, const Vec3& point) {
     const Lattices velocity = velocityLattices(air);
     const Vec3 local = (point - air.origin()) * (1.0 / air.cell);

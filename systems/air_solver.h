@@ -33,6 +33,9 @@ void projectAir(Air& air, WorkerPool& pool);
 /// The largest divergence of a cell (1/s), from the faces as they are.
 double airDivergenceMax(const Air& air, WorkerPool& pool);
 
+/// Whether a world point is inside the air's box.
+bool airContains(const Air& air, const Vec3& point);
+
 /// The velocity at a world point (each component trilinear between its faces; clamped to the box).
 Vec3 airVelocityAt(const Air& air, const Vec3& point);
 

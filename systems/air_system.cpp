@@ -77,6 +77,7 @@ void loadAir(TableReader& r, World& world, Entity entity, const SceneDef&) {
     air.dissipation = r.number("dissipation", 0.0, 0.0, 1e4);
     air.viscosity = r.number("viscosity", 0.0, 0.0, 1e3);
     air.tolerance = r.number("tolerance", 1e-3, 1e-9, 1e3);
+    air.coefficient = r.number("coefficient", 1.0, 0.0, 1e6);
     air.dumpFields = r.boolean("dump_fields", false);
     const std::uint64_t n = std::uint64_t(air.cellCount());
     r.charge("cells", n * kBytesPerCell, r.where() + " (" + std::to_string(n) + " cells)");

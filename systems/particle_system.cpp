@@ -1,5 +1,6 @@
 #include "systems/particle_system.h"
 
+#include "components/air.h"
 #include "components/force_field.h"
 #include "engine/name.h"
 #include "engine/parallel.h"
@@ -7,6 +8,7 @@
 #include "engine/scene.h"
 #include "engine/simd.h"
 #include "engine/transform.h"
+#include "systems/air_solver.h"
 #include "systems/field_forces.h"
 
 #include <immintrin.h>
@@ -101,6 +103,9 @@ void loadEmitter(TableReader& r, World& world, Entity entity, const SceneDef& sc
                                     " (320 MB) are allowed");
     }
     d.drag = r.number("drag", 0.0, 0.0, 1e3);
+    if (r.has("air")) {
+        d.airName = r.requiredString("air"); // resolved by linkEmitter, once every entity exists
+    }
     d.collide = r.boolean("collide", true);
     d.restitution = r.number("restitution", 0.4, 0.0, 1.0);
     d.friction = r.number("friction", 0.3, 0.0, 100.0);
@@ -181,6 +186,22 @@ std::uint64_t dueBirths(const ParticleEmitter& e, double dt) {
 /// The scene's fixed step, for events (which run outside the emitter system).
 double ctxDt(World& w) {
     return w.resource<SceneDef>().dt;
+}
+
+/// The air's share of the drag: with keep = e^(-drag dt) the update's decay, the particles inside the air's
+/// box gain u (1 - keep), u the air's velocity where they are, so that with the decay v moves to u + (v -
+/// u) keep: the exact drag towards the air over the step.
+void applyAir(ParticlePool& p, const Air& air, float drag, float dt, WorkerPool& pool) {
+    const float share = 1.0f - std::exp(-drag * dt);
+    pool.forEach(p.count, 4096, [&](std::size_t i) {
+        const Vec3 x{p.px[i], p.py[i], p.pz[i]};
+        if (airContains(air, x)) {
+            const Vec3 u = airVelocityAt(air, x);
+            p.vx[i] += float(u.x) * share;
+            p.vy[i] += float(u.y) * share;
+            p.vz[i] += float(u.z) * share;
+        }
+    });
 }
 
 /// Velocity changes from the force fields, per particle (a 1 kg body).
@@ -461,6 +482,9 @@ void updateParticles(World& world, const StepContext& ctx) {
         if (fields && fields->size() > 0) {
             applyFields(e.pool, fields->values(), dt, pool);
         }
+        if (e.air != kNullEntity && e.def.drag > 0.0) {
+            applyAir(e.pool, world.get<Air>(e.air), static_cast<float>(e.def.drag), dt, pool);
+        }
         advanceParticles(e.pool, gravity, static_cast<float>(e.def.drag), dt, pool);
     });
 }
@@ -481,6 +505,9 @@ Retune emitterRetune() {
         if (bw.get<ParticleEmitter>(b).def.maxParticles != aw.get<ParticleEmitter>(a).def.maxParticles) {
             return std::string(
                 "emitter.max_particles cannot change during a run (the pool is reserved at load)");
+        }
+        if (bw.get<ParticleEmitter>(b).def.airName != aw.get<ParticleEmitter>(a).def.airName) {
+            return std::string("emitter.air cannot change during a run");
         }
         return std::nullopt;
     };
@@ -512,8 +539,25 @@ Retune emitterRetune() {
 
 } // namespace
 
+namespace {
+
+/// An emitter's `air`: the named entity must have an air grid.
+void linkEmitter(TableReader& r, World& world, Entity entity, const EntityLookup& lookup) {
+    ParticleEmitter& e = world.get<ParticleEmitter>(entity);
+    if (e.def.airName.empty()) {
+        return;
+    }
+    const Entity air = lookup(r, "air", true);
+    if (!world.has<Air>(air)) {
+        r.fail("air", "entity '" + e.def.airName + "' has no [entity.air] for these particles to ride");
+    }
+    e.air = air;
+}
+
+} // namespace
+
 void registerParticleSystem(Catalog& catalog) {
-    catalog.addComponent({"emitter", loadEmitter});
+    catalog.addComponent({"emitter", loadEmitter, linkEmitter});
     catalog.addState<ParticleEmitter>("particles", dumpEmitter, hashEmitter);
     catalog.addRetune(emitterRetune());
     // burst: value = [count], or the emitter's own burst size

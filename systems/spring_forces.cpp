@@ -1,6 +1,7 @@
 #include "systems/spring_forces.h"
 
 #include "engine/parallel.h"
+#include "systems/air_solver.h"
 #include "systems/block_sparse.h"
 #include "systems/field_forces.h"
 
@@ -37,6 +38,50 @@ bool shareOut(const WorkerPool& pool, std::size_t items, std::size_t grain) {
     return pool.threads() > 1 && items > grain;
 }
 
+/// Moving air acting on cloth and masses: a wind field (the same everywhere) or an air grid (its velocity
+/// where asked, inside its box).
+struct MovingAir {
+    const ForceField* field = nullptr;
+    const Air* air = nullptr;
+    double coefficient = 0.0; ///< N s/m per mass, N s/m^3 per area on cloth
+
+    /// The air's velocity at a point; false where this air is not.
+    bool at(const Vec3& p, Vec3& velocity) const {
+        if (field != nullptr) {
+            velocity = field->current;
+            return true;
+        }
+        if (!airContains(*air, p)) {
+            return false;
+        }
+        velocity = airVelocityAt(*air, p);
+        return true;
+    }
+};
+
+/// The winds that act on a network through its triangles (a cloth's) or on each mass: the wind fields
+/// first, in the scene's order, then the air grids.
+std::vector<MovingAir> movingAir(const Environment& env) {
+    std::vector<MovingAir> out;
+    if (env.fields) {
+        for (const ForceField& field : *env.fields) {
+            if (field.kind == FieldKind::Wind) {
+                out.push_back({&field, nullptr, field.coefficient});
+            }
+        }
+    }
+    if (env.air) {
+        for (const Air* air : *env.air) {
+            out.push_back({nullptr, air, air->coefficient});
+        }
+    }
+    return out;
+}
+
+bool surfaceWind(const SpringNetwork& net) {
+    return net.kind == NetworkKind::Cloth && !net.triangles.empty();
+}
+
 } // namespace
 
 void ForceIncidence::update(const SpringNetwork& net) {
@@ -65,45 +110,51 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
     f.resize(n);
     inc.update(net);
     WorkerPool& pool = poolOr(env.pool);
-    // per mass: gravity, drag, fields (wind on cloth goes through the triangles below)
-    const bool surfaceWind = net.kind == NetworkKind::Cloth && !net.triangles.empty();
-    bool pointFields = false; // any field that acts on each mass (wind on cloth acts on its triangles)
+    // per mass: gravity, drag, fields and air grids (wind and air on cloth go through the triangles below)
+    const bool surface = surfaceWind(net);
+    bool pointFields = false; // any field that acts on each mass
     if (env.fields) {
         for (const ForceField& field : *env.fields) {
-            pointFields = pointFields || !(surfaceWind && field.kind == FieldKind::Wind);
+            pointFields = pointFields || !(surface && field.kind == FieldKind::Wind);
         }
     }
+    const bool pointAir = !surface && env.air && !env.air->empty();
     pool.forEach(n, kMassGrain, [&](std::size_t i) {
         const double m = 1.0 / net.invMass[i];
         Vec3 fi = env.gravity * m - v[i] * net.drag;
         if (pointFields) {
             for (const ForceField& field : *env.fields) {
-                if (!(surfaceWind && field.kind == FieldKind::Wind)) {
+                if (!(surface && field.kind == FieldKind::Wind)) {
                     fi += fieldForce(field, x[i], v[i], m);
+                }
+            }
+        }
+        if (pointAir) {
+            for (const Air* air : *env.air) {
+                if (airContains(*air, x[i])) {
+                    fi += (airVelocityAt(*air, x[i]) - v[i]) * air->coefficient;
                 }
             }
         }
         f[i] = fi;
     });
-    if (!surfaceWind || !env.fields) {
+    if (!surface) {
         return;
     }
     // wind on cloth: per triangle, along its normal, shared by its corners
     const bool gather = shareOut(pool, net.triangles.size(), kTriangleGrain);
-    for (const ForceField& field : *env.fields) {
-        if (field.kind != FieldKind::Wind) {
-            continue;
-        }
+    for (const MovingAir& wind : movingAir(env)) {
         // with A the area-weighted normal (|A| = area), area ((w - v) . n) n = ((w - v) . A) A / |A|
-        const double perCorner = field.coefficient / 3.0;
+        const double perCorner = wind.coefficient / 3.0;
         auto windOn = [&](std::size_t k, Vec3& ft) {
             const auto& t = net.triangles[k];
             const Vec3 areaNormal = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]) * 0.5;
             const double area = length(areaNormal);
-            if (area <= 1e-15) {
+            Vec3 air;
+            if (area <= 1e-15 || !wind.at((x[t[0]] + x[t[1]] + x[t[2]]) * (1.0 / 3.0), air)) {
                 return false;
             }
-            const Vec3 relative = field.current - (v[t[0]] + v[t[1]] + v[t[2]]) * (1.0 / 3.0);
+            const Vec3 relative = air - (v[t[0]] + v[t[1]] + v[t[2]]) * (1.0 / 3.0);
             ft = areaNormal * (perCorner * dot(relative, areaNormal) / area);
             return true;
         };
@@ -181,25 +232,26 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
 
 void addWindDamping(const SpringNetwork& net, const Environment& env, double h, ForceIncidence& inc,
                     std::vector<Mat3>& diagonal) {
-    if (!env.fields || net.kind != NetworkKind::Cloth) {
+    if (net.kind != NetworkKind::Cloth) {
         return;
     }
     inc.update(net);
     WorkerPool& pool = poolOr(env.pool);
     const bool gather = shareOut(pool, net.triangles.size(), kTriangleGrain);
-    for (const ForceField& field : *env.fields) {
-        if (field.kind != FieldKind::Wind || field.coefficient == 0.0) {
+    for (const MovingAir& wind : movingAir(env)) {
+        if (wind.coefficient == 0.0) {
             continue;
         }
         auto blockOf = [&](std::size_t k, Mat3& block) {
             const auto& t = net.triangles[k];
             const Vec3 areaNormal = cross(net.x[t[1]] - net.x[t[0]], net.x[t[2]] - net.x[t[0]]) * 0.5;
             const double area = length(areaNormal);
-            if (area <= 1e-15) {
+            Vec3 air;
+            if (area <= 1e-15 || !wind.at((net.x[t[0]] + net.x[t[1]] + net.x[t[2]]) * (1.0 / 3.0), air)) {
                 return false;
             }
             // c A/3 n n^T = c/3 (A n)(A n)^T / A
-            block = Mat3::outer(areaNormal, h * field.coefficient / (3.0 * area));
+            block = Mat3::outer(areaNormal, h * wind.coefficient / (3.0 * area));
             return true;
         };
         if (!gather) {
@@ -243,11 +295,18 @@ bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& 
 
 double massDamping(const SpringNetwork& net, const Environment& env, const Vec3& x) {
     double c = net.drag;
+    const bool surface = surfaceWind(net);
     if (env.fields) {
-        const bool surfaceWind = net.kind == NetworkKind::Cloth && !net.triangles.empty();
         for (const ForceField& field : *env.fields) {
-            if (!(surfaceWind && field.kind == FieldKind::Wind)) {
+            if (!(surface && field.kind == FieldKind::Wind)) {
                 c += fieldDamping(field, x);
+            }
+        }
+    }
+    if (env.air && !surface) {
+        for (const Air* air : *env.air) {
+            if (airContains(*air, x)) {
+                c += air->coefficient;
             }
         }
     }

@@ -8,9 +8,11 @@
 // The max(0, .) drops the transverse term of a compressed spring, whose true value is negative and would
 // make the system matrix indefinite (Choi & Ko 2002); it only changes the Newton direction, not the force.
 // Gravity m g, global drag -drag v, and the force fields (force_field_system.h) are added per mass; wind on
-// cloth acts through its triangles' normals. External forces are taken explicitly by implicit Euler,
-// except their linear damping, which joins the system matrix.
+// cloth acts through its triangles' normals. An air grid (systems/air_solver.h) acts as wind does, with
+// its velocity where the mass (or the triangle's centroid) is, on what is inside its box. External forces are
+// taken explicitly by implicit Euler, except their linear damping, which joins the system matrix.
 
+#include "components/air.h"
 #include "components/force_field.h"
 #include "components/spring_network.h"
 #include "systems/block_sparse.h"
@@ -30,6 +32,7 @@ struct Environment {
     const std::vector<ForceField>* fields = nullptr; ///< the scene's force fields, or none
     Profiler* profiler = nullptr;                    ///< for the integrators' stages; null when untimed
     WorkerPool* pool = nullptr; ///< threads for the per-mass and per-link loops; null: one thread
+    const std::vector<const Air*>* air = nullptr; ///< the scene's air grids, or none
 };
 
 /// Each mass's links and cloth triangles, in order, and room for one evaluation's per-link and per-triangle

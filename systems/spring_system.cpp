@@ -671,10 +671,13 @@ void freeze(World& world, const StepContext& ctx, NetworkStep& s) {
 void integrateSprings(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Pool<ForceField>* fields = world.findPool<ForceField>();
+    std::vector<const Air*> airs;
+    world.view<const Air>().each([&](Entity, const Air& air) { airs.push_back(&air); });
     const Environment env{{g[0], g[1], g[2]},
                           fields && fields->size() > 0 ? &fields->values() : nullptr,
                           ctx.profiler,
-                          ctx.pool};
+                          ctx.pool,
+                          airs.empty() ? nullptr : &airs};
     // the networks step side by side (each touches only itself); what touches bodies runs before and
     // after, in entity order: following reads bodies, pulling adds to their impulses
     std::vector<NetworkStep> steps;
