@@ -19,6 +19,14 @@ namespace tumble {
 /// pressure of the world outside).
 enum class AirBorder : std::uint8_t { Closed, Open };
 
+/// A face held at a solid's velocity (it touches a cell inside a body): which component's faces, which
+/// face, and the velocity across it.
+struct AirFixedFace {
+    std::uint32_t axis;
+    std::uint32_t index;
+    float velocity;
+};
+
 /// One level of the projection's multigrid: a grid of cells padded by a layer of zeros on every side (so
 /// that a neighbour past a wall or an open side reads as zero and the stencil needs no branch), and each
 /// cell's diagonal (weight times its neighbours in the box plus its open sides).
@@ -26,6 +34,7 @@ struct AirLevel {
     std::array<int, 3> n{};
     float weight = 1.0f; ///< the stencil's weight on this level (2 on the one below the finest, ...)
     std::vector<float> diagonal, relax, x, b, scratch; ///< relax: Jacobi's weight over the diagonal
+    std::vector<std::uint8_t> solid;                   ///< per cell (unpadded): all its fine cells solid
 };
 
 /// What the projection keeps between steps: its levels and work vectors (padded, as AirLevel).
@@ -55,11 +64,15 @@ struct Air {
     bool dumpFields = false;  ///< dump the whole fields, not only their summary
 
     // the fields, x fastest, then y, then z
-    std::vector<float> u, v, w;       ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
-    std::vector<float> smoke, heat;   ///< density (1 = thick), degrees above ambient; nx ny nz each
-    std::vector<float> pressure;      ///< the last projection's (scaled: p dt / rho), the next one's guess
-    double divergenceMax = 0.0;       ///< 1/s, the largest cell divergence after the last projection
-    std::uint32_t lastIterations = 0; ///< the last projection's CG iterations
+    std::vector<float> u, v, w;     ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
+    std::vector<float> smoke, heat; ///< density (1 = thick), degrees above ambient; nx ny nz each
+    std::vector<float> pressure;    ///< the last projection's (scaled: p dt / rho), the next one's guess
+    /// per cell: 1 inside a rigid body (voxelised each step), which the air flows round; empty: none
+    std::vector<std::uint8_t> solid;
+    std::vector<AirFixedFace> fixedFaces; ///< the faces of the solid cells, at their bodies' velocities
+    bool solidChanged = false;            ///< the solver's levels must be made again for the new cells
+    double divergenceMax = 0.0;           ///< 1/s, the largest cell divergence after the last projection
+    std::uint32_t lastIterations = 0;     ///< the last projection's CG iterations
     AirScratch scratch;
 
     std::size_t cellCount() const {

@@ -76,7 +76,7 @@ void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& poo
         for (int i = 0; i < g.nx; ++i) {
             const float around =
                 ((c[i - 1] + c[i + 1]) + (c[i - g.sx] + c[i + g.sx])) + (c[i - g.sy] + c[i + g.sy]);
-            out[i] = d[i] * c[i] - weight * around;
+            out[i] = d[i] > 0.0f ? d[i] * c[i] - weight * around : 0.0f; // a solid cell stays out
         }
     });
 }
@@ -150,7 +150,9 @@ void vcycle(std::vector<AirLevel>& levels, std::size_t l, const float* b, Worker
         const std::size_t row = g.at(0, j, k);
         const float* from = coarse.x.data() + c.at(0, j / 2, k / 2);
         for (int i = 0; i < g.nx; ++i) {
-            level.x[row + std::size_t(i)] += from[i / 2];
+            if (level.relax[row + std::size_t(i)] > 0.0f) {
+                level.x[row + std::size_t(i)] += from[i / 2];
+            }
         }
     });
     for (int s = 0; s < kSmoothing; ++s) {
@@ -176,30 +178,79 @@ void buildLevels(Air& air) {
         level.x.assign(g.size(), 0.0f);
         level.b.assign(g.size(), 0.0f);
         level.scratch.assign(g.size(), 0.0f);
-        for (int k = 0; k < n[2]; ++k) {
-            for (int j = 0; j < n[1]; ++j) {
-                for (int i = 0; i < n[0]; ++i) {
-                    const int index[3] = {i, j, k};
-                    int count = 0;
-                    for (int a = 0; a < 3; ++a) {
-                        // a neighbour inside counts, and so does an open side (zero pressure beyond it)
-                        count += index[a] > 0 || air.border[std::size_t(2 * a)] == AirBorder::Open ? 1 : 0;
-                        count += index[a] + 1 < n[std::size_t(a)] ||
-                                         air.border[std::size_t(2 * a + 1)] == AirBorder::Open
-                                     ? 1
-                                     : 0;
-                    }
-                    level.diagonal[g.at(i, j, k)] = weight * float(count);
-                    level.relax[g.at(i, j, k)] = count > 0 ? kJacobiWeight / (weight * float(count)) : 0.0f;
-                }
-            }
-        }
+        level.solid.assign(std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]), 0);
         levels.push_back(std::move(level));
         if (std::min({n[0], n[1], n[2]}) <= 2 || std::size_t(n[0]) * n[1] * n[2] < 64) {
             break;
         }
         n = {(n[0] + 1) / 2, (n[1] + 1) / 2, (n[2] + 1) / 2};
         weight *= 2.0f; // the coarse stencil as rediscretised on cells twice as wide, in the fine one's units
+    }
+}
+
+/// Each level's solid cells (a coarse cell is solid when all its cells are) and its diagonal: weight times
+/// the neighbours that are air plus the open sides (zero pressure beyond them); a solid cell's is zero, and
+/// so is its Jacobi weight, which keeps it at zero.
+void shapeLevels(Air& air) {
+    std::vector<AirLevel>& levels = air.scratch.levels;
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+        AirLevel& level = levels[l];
+        const std::array<int, 3> n = level.n;
+        auto cell = [&](int i, int j, int k) {
+            return std::size_t(i) + std::size_t(n[0]) * (std::size_t(j) + std::size_t(n[1]) * std::size_t(k));
+        };
+        if (l == 0) {
+            if (air.solid.empty()) {
+                std::fill(level.solid.begin(), level.solid.end(), std::uint8_t(0));
+            } else {
+                level.solid = air.solid;
+            }
+        } else {
+            const AirLevel& fine = levels[l - 1];
+            for (int k = 0; k < n[2]; ++k) {
+                for (int j = 0; j < n[1]; ++j) {
+                    for (int i = 0; i < n[0]; ++i) {
+                        std::uint8_t all = 1;
+                        for (int c = 0; c < 8; ++c) {
+                            const int fi = 2 * i + (c & 1), fj = 2 * j + ((c >> 1) & 1),
+                                      fk = 2 * k + (c >> 2);
+                            if (fi < fine.n[0] && fj < fine.n[1] && fk < fine.n[2]) {
+                                all = std::uint8_t(
+                                    all & fine.solid[std::size_t(fi) +
+                                                     std::size_t(fine.n[0]) *
+                                                         (std::size_t(fj) + std::size_t(fine.n[1]) * fk)]);
+                            }
+                        }
+                        level.solid[cell(i, j, k)] = all;
+                    }
+                }
+            }
+        }
+        const Padded g(n);
+        for (int k = 0; k < n[2]; ++k) {
+            for (int j = 0; j < n[1]; ++j) {
+                for (int i = 0; i < n[0]; ++i) {
+                    int count = 0;
+                    if (!level.solid[cell(i, j, k)]) {
+                        for (int a = 0; a < 3; ++a) {
+                            for (int side = 0; side < 2; ++side) {
+                                int m[3] = {i, j, k};
+                                m[a] += side == 0 ? -1 : 1;
+                                if (m[a] < 0 || m[a] >= n[std::size_t(a)]) {
+                                    count += air.border[std::size_t(2 * a + side)] == AirBorder::Open ? 1 : 0;
+                                } else {
+                                    count += level.solid[cell(m[0], m[1], m[2])] ? 0 : 1;
+                                }
+                            }
+                        }
+                    }
+                    level.diagonal[g.at(i, j, k)] = level.weight * float(count);
+                    level.relax[g.at(i, j, k)] =
+                        count > 0 ? kJacobiWeight / (level.weight * float(count)) : 0.0f;
+                    level.x[g.at(i, j, k)] = 0.0f;
+                }
+            }
+        }
     }
 }
 
@@ -250,24 +301,50 @@ float outflow(const Air& air, int i, int j, int k) {
     return ((air.u[ui + 1] - air.u[ui]) + (air.v[vi + nx] - air.v[vi])) + (air.w[wi + nx * ny] - air.w[wi]);
 }
 
-/// Subtracts the mean over the cells from a padded vector (the all-closed problem's constant null space).
+/// Subtracts the mean over the air's cells (not the solid ones) from a padded vector: the all-closed
+/// problem's constant null space.
 void removeMean(const Air& air, std::vector<float>& x, WorkerPool& pool) {
     const Padded g(air.cells);
-    const double total = sumRows(pool, g.ny, g.nz, 0.0, [&](int j, int k) {
-        double s = 0.0;
+    const std::vector<float>& relax = air.scratch.levels[0].relax;
+    struct Total {
+        double sum = 0.0, count = 0.0;
+        Total& operator+=(const Total& o) {
+            sum += o.sum;
+            count += o.count;
+            return *this;
+        }
+    };
+    const Total total = sumRows(pool, g.ny, g.nz, Total{}, [&](int j, int k) {
+        Total t;
         const std::size_t row = g.at(0, j, k);
         for (int i = 0; i < g.nx; ++i) {
-            s += double(x[row + std::size_t(i)]);
+            if (relax[row + std::size_t(i)] > 0.0f) {
+                t.sum += double(x[row + std::size_t(i)]);
+                t.count += 1.0;
+            }
         }
-        return s;
+        return t;
     });
-    const auto mean = float(total / double(air.cellCount()));
+    if (!(total.count > 0.0)) {
+        return;
+    }
+    const auto mean = float(total.sum / total.count);
     forRows(pool, g.ny, g.nz, [&](int j, int k) {
         const std::size_t row = g.at(0, j, k);
         for (int i = 0; i < g.nx; ++i) {
-            x[row + std::size_t(i)] -= mean;
+            if (relax[row + std::size_t(i)] > 0.0f) {
+                x[row + std::size_t(i)] -= mean;
+            }
         }
     });
+}
+
+/// The solid cells' faces set to their bodies' velocities.
+void holdFixedFaces(Air& air) {
+    std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
+    for (const AirFixedFace& f : air.fixedFaces) {
+        (*faces[f.axis])[f.index] = f.velocity;
+    }
 }
 
 double dotCells(const Air& air, const std::vector<float>& a, const std::vector<float>& b, WorkerPool& pool) {
@@ -624,6 +701,7 @@ void initAir(Air& air) {
     air.smoke.assign(nx * ny * nz, 0.0f);
     air.heat.assign(nx * ny * nz, 0.0f);
     buildLevels(air);
+    shapeLevels(air);
     const std::size_t padded = Padded(air.cells).size();
     air.pressure.assign(padded, 0.0f);
     AirScratch& s = air.scratch;
@@ -638,16 +716,25 @@ void initAir(Air& air) {
 }
 
 void projectAir(Air& air, WorkerPool& pool) {
-    closeSides(air);
     AirScratch& s = air.scratch;
     AirLevel& fine = s.levels[0];
     const Padded g(air.cells);
+    if (air.solidChanged) {
+        shapeLevels(air);
+        air.solidChanged = false;
+        for (std::size_t c = 0; c < air.pressure.size(); ++c) {
+            air.pressure[c] = fine.relax[c] > 0.0f ? air.pressure[c] : 0.0f; // a solid cell's is zero
+        }
+    }
+    closeSides(air);
+    holdFixedFaces(air);
     const auto dx = float(air.cell);
-    // b = -dx^2 div u = -dx (outflow); r = b - A q from last step's q
+    // b = -dx^2 div u = -dx (outflow) in the air's cells; r = b - A q from last step's q
     forRows(pool, g.ny, g.nz, [&](int j, int k) {
         const std::size_t row = g.at(0, j, k);
         for (int i = 0; i < g.nx; ++i) {
-            fine.b[row + std::size_t(i)] = -dx * outflow(air, i, j, k);
+            fine.b[row + std::size_t(i)] =
+                fine.relax[row + std::size_t(i)] > 0.0f ? -dx * outflow(air, i, j, k) : 0.0f;
         }
     });
     const bool singular = allClosed(air);
@@ -727,6 +814,7 @@ void projectAir(Air& air, WorkerPool& pool) {
         }
     });
     closeSides(air);
+    holdFixedFaces(air); // a face of a solid cell keeps its body's velocity
     air.divergenceMax = airDivergenceMax(air, pool);
 }
 
@@ -735,7 +823,9 @@ double airDivergenceMax(const Air& air, WorkerPool& pool) {
                    [&](int j, int k) {
                        Largest m;
                        for (int i = 0; i < air.cells[0]; ++i) {
-                           m.value = std::max(m.value, double(std::abs(outflow(air, i, j, k))));
+                           if (air.solid.empty() || !air.solid[air.at(i, j, k)]) {
+                               m.value = std::max(m.value, double(std::abs(outflow(air, i, j, k))));
+                           }
                        }
                        return m;
                    })
@@ -745,6 +835,15 @@ double airDivergenceMax(const Air& air, WorkerPool& pool) {
 
 void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     advect(air, dt, pool);
+    if (!air.solid.empty()) {
+        // nothing is carried into a body
+        for (std::size_t c = 0; c < air.solid.size(); ++c) {
+            if (air.solid[c]) {
+                air.smoke[c] = 0.0f;
+                air.heat[c] = 0.0f;
+            }
+        }
+    }
     if (air.dissipation > 0.0) {
         const auto keep = float(1.0 / (1.0 + dt * air.dissipation));
         for (float& s : air.smoke) {

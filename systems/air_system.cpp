@@ -6,6 +6,7 @@
 #include "engine/scene.h"
 #include "engine/transform.h"
 #include "systems/air_solver.h"
+#include "systems/collision_system.h"
 
 #include <algorithm>
 #include <cmath>
@@ -232,6 +233,91 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
     }
 }
 
+void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
+    const std::size_t n = air.cellCount();
+    std::vector<std::int32_t> owner(n, -1); // per cell: the body it is inside, the last one listed
+    const Vec3 origin = air.origin();
+    const Vec3 end = origin + Vec3{air.cells[0] * air.cell, air.cells[1] * air.cell, air.cells[2] * air.cell};
+    bool any = false;
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+        const RigidBody& body = *bodies[b];
+        if (body.shape == ShapeKind::Mesh) {
+            continue; // an open surface has no inside to fill (README, "Air")
+        }
+        Aabb box;
+        if (!worldBox(body, box)) {
+            box.lo = origin; // a plane: the whole grid
+            box.hi = end;
+        }
+        int lo[3], hi[3];
+        const double from[3] = {box.lo.x - origin.x, box.lo.y - origin.y, box.lo.z - origin.z};
+        const double to[3] = {box.hi.x - origin.x, box.hi.y - origin.y, box.hi.z - origin.z};
+        for (std::size_t a = 0; a < 3; ++a) {
+            lo[a] = int(std::clamp(std::floor(from[a] / air.cell - 0.5), 0.0, double(air.cells[a])));
+            hi[a] = int(std::clamp(std::ceil(to[a] / air.cell + 0.5), 0.0, double(air.cells[a])));
+        }
+        for (int k = lo[2]; k < hi[2]; ++k) {
+            for (int j = lo[1]; j < hi[1]; ++j) {
+                for (int i = lo[0]; i < hi[0]; ++i) {
+                    Vec3 normal;
+                    if (signedDistance(body, origin + Vec3{i + 0.5, j + 0.5, k + 0.5} * air.cell, normal) <
+                        0.0) {
+                        owner[air.at(i, j, k)] = std::int32_t(b);
+                        any = true;
+                    }
+                }
+            }
+        }
+    }
+    std::vector<std::uint8_t> solid;
+    air.fixedFaces.clear();
+    if (any) {
+        solid.resize(n);
+        for (std::size_t c = 0; c < n; ++c) {
+            solid[c] = owner[c] >= 0 ? 1 : 0;
+        }
+        // the faces of every solid cell that touches the air, at the body's velocity there: the faces across
+        // the surface make the air flow round the body, those along it drag the air beside it (no slip)
+        auto solidAt = [&](int i, int j, int k) {
+            return i < 0 || j < 0 || k < 0 || i >= air.cells[0] || j >= air.cells[1] || k >= air.cells[2] ||
+                   owner[air.at(i, j, k)] >= 0;
+        };
+        for (int k = 0; k < air.cells[2]; ++k) {
+            for (int j = 0; j < air.cells[1]; ++j) {
+                for (int i = 0; i < air.cells[0]; ++i) {
+                    const std::int32_t b = owner[air.at(i, j, k)];
+                    if (b < 0 || (solidAt(i - 1, j, k) && solidAt(i + 1, j, k) && solidAt(i, j - 1, k) &&
+                                  solidAt(i, j + 1, k) && solidAt(i, j, k - 1) && solidAt(i, j, k + 1))) {
+                        continue; // air, or deep inside
+                    }
+                    for (std::uint32_t a = 0; a < 3; ++a) {
+                        std::array<int, 3> faces = air.cells;
+                        faces[a] += 1;
+                        for (int side = 0; side < 2; ++side) {
+                            std::array<int, 3> f{i, j, k};
+                            f[a] += side; // the face's index along its axis
+                            Vec3 at = origin + Vec3{f[0] + 0.5, f[1] + 0.5, f[2] + 0.5} * air.cell;
+                            (a == 0 ? at.x : a == 1 ? at.y : at.z) -= 0.5 * air.cell;
+                            const Vec3 v = bodies[std::size_t(b)]->velocityAt(at);
+                            const std::size_t index =
+                                std::size_t(f[0]) +
+                                std::size_t(faces[0]) * (std::size_t(f[1]) + std::size_t(faces[1]) * f[2]);
+                            air.fixedFaces.push_back({a, std::uint32_t(index),
+                                                      float(a == 0   ? v.x
+                                                            : a == 1 ? v.y
+                                                                     : v.z)});
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if (solid != air.solid) {
+        air.solid = std::move(solid);
+        air.solidChanged = true;
+    }
+}
+
 void advanceAir(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Vec3 gravity{g[0], g[1], g[2]};
@@ -242,8 +328,16 @@ void advanceAir(World& world, const StepContext& ctx) {
                 feedAir(world.get<Air>(s.air), s, t.position, ctx.dt);
             });
     }
-    ProfileStage stage(ctx.profiler, "air.step");
-    world.view<Air>().each([&](Entity, Air& air) { stepAir(air, gravity, ctx.dt, poolOr(ctx.pool)); });
+    std::vector<const RigidBody*> bodies;
+    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) { bodies.push_back(&b); });
+    world.view<Air>().each([&](Entity, Air& air) {
+        {
+            ProfileStage stage(ctx.profiler, "air.bodies");
+            voxeliseBodies(air, bodies);
+        }
+        ProfileStage stage(ctx.profiler, "air.step");
+        stepAir(air, gravity, ctx.dt, poolOr(ctx.pool));
+    });
 }
 
 void registerAirSystem(Catalog& catalog) {

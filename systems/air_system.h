@@ -1,12 +1,14 @@
 #pragma once
 // Air on a grid in the scene (README, "Air"): the `air` component (a box of cubic cells advanced by
 // stable fluids, systems/air_solver.h) and the `air_source` component that feeds one (smoke, heat and a
-// velocity in a sphere or box about its entity). Each fixed step: the sources add what they add, then
-// every air grid takes its step. System: reads SceneDef, Transform and AirSource; writes Air. Phase:
+// velocity in a sphere or box about its entity). Each fixed step: the sources add what they add, the
+// rigid bodies are voxelised into each grid, then every air grid takes its step. System: reads SceneDef,
+// Transform, AirSource and RigidBody; writes Air. Phase:
 // fixed, after the water. Dump kind "air": `cells`, `smoke_total`, `smoke_centroid`, `divergence_max`,
 // `kinetic_energy`, and with `dump_fields = true` the fields `u`, `v`, `w`, `smoke`, `heat`.
 
 #include "components/air.h"
+#include "components/rigid_body.h"
 #include "engine/catalog.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
@@ -19,6 +21,11 @@ void advanceAir(World& world, const StepContext& ctx);
 /// Adds what a source at `at` gives its air over dt: smoke and heat to the cells whose centres are inside
 /// its shape (the cell holding `at` when none is), and its velocity on the faces inside it.
 void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt);
+
+/// Marks the cells whose centres are inside a rigid body (all shapes but the open mesh; a plane fills what
+/// is below it) as solid, and holds each face between a solid cell and the air at its body's velocity
+/// there: the air flows round a wall and a moving paddle pushes it.
+void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies);
 
 /// Registers the `air` and `air_source` components and the dump kind "air".
 void registerAirSystem(Catalog& catalog);

@@ -211,10 +211,6 @@ double localSignedDistance(const RigidBody& body, const Vec3& d, Vec3& normal) {
     return 1e300;
 }
 
-namespace {
-
-/// A body's box in the world, or none for what has no bounds to speak of: a plane, and a static mesh (a
-/// point below a terrain is inside it, however far below).
 bool worldBox(const RigidBody& b, Aabb& box) {
     Vec3 centre, half;
     switch (b.shape) {
@@ -253,6 +249,8 @@ bool worldBox(const RigidBody& b, Aabb& box) {
                 (1.0 + std::abs(at.x) + std::abs(at.y) + std::abs(at.z) + reach.x + reach.y + reach.z));
     return true;
 }
+
+namespace {
 
 /// Which bodies a point may touch this step: those whose world box, grown by the point's reach, holds it,
 /// and the unbounded ones, in the pool's order. Testing only these, in that order, and finding them again

@@ -17,6 +17,7 @@
 #include "engine/catalog.h"
 #include "engine/step_context.h"
 #include "engine/world.h"
+#include "systems/bvh.h"
 
 namespace tumble {
 
@@ -26,6 +27,10 @@ double signedDistance(const RigidBody& body, const Vec3& p, Vec3& normal);
 
 /// The same for a point in the body's frame; the normal is in the body's frame too.
 double localSignedDistance(const RigidBody& body, const Vec3& local, Vec3& normal);
+
+/// A body's box in the world; false for what has no bounds to speak of: a plane, and a static mesh (a
+/// point below a terrain is inside it, however far below).
+bool worldBox(const RigidBody& body, Aabb& box);
 
 /// A 2D body as the 3D shape it is drawn as (components/rigid_body_2d.h): a slab about z (its entity's z),
 /// in the body's pose advanced by its velocity over dt, and moving as it does; a circle is a cylinder along
