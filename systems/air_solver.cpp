@@ -72,11 +72,12 @@ void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& poo
         const std::size_t row = g.at(0, j, k);
         const float* c = x + row;
         const float* d = level.diagonal.data() + row;
+        const float* in = level.inAir.data() + row; // a solid cell stays out: 0
         float* out = y + row;
         for (int i = 0; i < g.nx; ++i) {
             const float around =
                 ((c[i - 1] + c[i + 1]) + (c[i - g.sx] + c[i + g.sx])) + (c[i - g.sy] + c[i + g.sy]);
-            out[i] = d[i] > 0.0f ? d[i] * c[i] - weight * around : 0.0f; // a solid cell stays out
+            out[i] = in[i] * (d[i] * c[i] - weight * around);
         }
     });
 }
@@ -149,10 +150,9 @@ void vcycle(std::vector<AirLevel>& levels, std::size_t l, const float* b, Worker
     forRows(pool, g.ny, g.nz, [&](int j, int k) {
         const std::size_t row = g.at(0, j, k);
         const float* from = coarse.x.data() + c.at(0, j / 2, k / 2);
+        const float* in = level.inAir.data() + row;
         for (int i = 0; i < g.nx; ++i) {
-            if (level.relax[row + std::size_t(i)] > 0.0f) {
-                level.x[row + std::size_t(i)] += from[i / 2];
-            }
+            level.x[row + std::size_t(i)] += in[i] * from[i / 2];
         }
     });
     for (int s = 0; s < kSmoothing; ++s) {
@@ -175,6 +175,7 @@ void buildLevels(Air& air) {
         const Padded g(n);
         level.diagonal.assign(g.size(), 0.0f);
         level.relax.assign(g.size(), 0.0f);
+        level.inAir.assign(g.size(), 0.0f);
         level.x.assign(g.size(), 0.0f);
         level.b.assign(g.size(), 0.0f);
         level.scratch.assign(g.size(), 0.0f);
@@ -247,6 +248,7 @@ void shapeLevels(Air& air) {
                     level.diagonal[g.at(i, j, k)] = level.weight * float(count);
                     level.relax[g.at(i, j, k)] =
                         count > 0 ? kJacobiWeight / (level.weight * float(count)) : 0.0f;
+                    level.inAir[g.at(i, j, k)] = count > 0 ? 1.0f : 0.0f;
                     level.x[g.at(i, j, k)] = 0.0f;
                 }
             }
@@ -597,27 +599,33 @@ void confineVorticity(Air& air, double dt, WorkerPool& pool) {
             cv[3 * c + 2] = 0.5f * (air.w[c] + air.w[c + std::size_t(nx) * std::size_t(ny)]);
         }
     });
-    // d(component)/d(axis) at a cell, central where it can be
-    auto derivative = [&](const float* field, int stride, int i, int j, int k, int axis, int component) {
-        const int index[3] = {i, j, k};
-        const int size = air.cells[std::size_t(axis)];
-        const int lo = std::max(index[axis] - 1, 0), hi = std::min(index[axis] + 1, size - 1);
-        if (hi == lo) {
-            return 0.0f;
-        }
-        int a[3] = {i, j, k}, b[3] = {i, j, k};
-        a[axis] = lo;
-        b[axis] = hi;
-        const float fa = field[std::size_t(stride) * air.at(a[0], a[1], a[2]) + std::size_t(component)];
-        const float fb = field[std::size_t(stride) * air.at(b[0], b[1], b[2]) + std::size_t(component)];
-        return (fb - fa) / (float(hi - lo) * float(air.cell));
+    // central differences where they can be, one-sided at the box's sides: along each axis the two cells
+    // either side (clamped) and one over the distance between them
+    struct Span {
+        int lo, hi;
+        float scale;
     };
+    const auto inv = float(1.0 / air.cell);
+    auto span = [&](int i, int size) {
+        const int lo = std::max(i - 1, 0), hi = std::min(i + 1, size - 1);
+        return Span{lo, hi, hi > lo ? inv / float(hi - lo) : 0.0f};
+    };
+    const std::size_t row = std::size_t(nx), layer = std::size_t(nx) * std::size_t(ny);
     forRows(pool, ny, nz, [&](int j, int k) {
+        const Span y = span(j, ny), z = span(k, nz);
+        const float* here = cv + 3 * (row * std::size_t(j) + layer * std::size_t(k));
+        const float* ym = cv + 3 * (row * std::size_t(y.lo) + layer * std::size_t(k));
+        const float* yp = cv + 3 * (row * std::size_t(y.hi) + layer * std::size_t(k));
+        const float* zm = cv + 3 * (row * std::size_t(j) + layer * std::size_t(z.lo));
+        const float* zp = cv + 3 * (row * std::size_t(j) + layer * std::size_t(z.hi));
+        const std::size_t c0 = air.at(0, j, k);
         for (int i = 0; i < nx; ++i) {
-            const std::size_t c = air.at(i, j, k);
-            const float wx = derivative(cv, 3, i, j, k, 1, 2) - derivative(cv, 3, i, j, k, 2, 1);
-            const float wy = derivative(cv, 3, i, j, k, 2, 0) - derivative(cv, 3, i, j, k, 0, 2);
-            const float wz = derivative(cv, 3, i, j, k, 0, 1) - derivative(cv, 3, i, j, k, 1, 0);
+            const Span x = span(i, nx);
+            const std::size_t m = 3 * std::size_t(i), xl = 3 * std::size_t(x.lo), xh = 3 * std::size_t(x.hi);
+            const float wx = (yp[m + 2] - ym[m + 2]) * y.scale - (zp[m + 1] - zm[m + 1]) * z.scale;
+            const float wy = (zp[m] - zm[m]) * z.scale - (here[xh + 2] - here[xl + 2]) * x.scale;
+            const float wz = (here[xh + 1] - here[xl + 1]) * x.scale - (yp[m] - ym[m]) * y.scale;
+            const std::size_t c = c0 + std::size_t(i);
             s.curl[3 * c] = wx;
             s.curl[3 * c + 1] = wy;
             s.curl[3 * c + 2] = wz;
@@ -626,14 +634,23 @@ void confineVorticity(Air& air, double dt, WorkerPool& pool) {
     });
     // the force, in place of the cell velocities (no longer needed)
     const auto strength = float(air.vorticity * air.cell);
+    const float* length = s.curlLength.data();
     forRows(pool, ny, nz, [&](int j, int k) {
+        const Span y = span(j, ny), z = span(k, nz);
+        const std::size_t c0 = air.at(0, j, k);
+        const float* here = length + c0;
+        const float* ym = length + row * std::size_t(y.lo) + layer * std::size_t(k);
+        const float* yp = length + row * std::size_t(y.hi) + layer * std::size_t(k);
+        const float* zm = length + row * std::size_t(j) + layer * std::size_t(z.lo);
+        const float* zp = length + row * std::size_t(j) + layer * std::size_t(z.hi);
         for (int i = 0; i < nx; ++i) {
-            const std::size_t c = air.at(i, j, k);
-            const float gx = derivative(s.curlLength.data(), 1, i, j, k, 0, 0);
-            const float gy = derivative(s.curlLength.data(), 1, i, j, k, 1, 0);
-            const float gz = derivative(s.curlLength.data(), 1, i, j, k, 2, 0);
+            const Span x = span(i, nx);
+            const float gx = (here[x.hi] - here[x.lo]) * x.scale;
+            const float gy = (yp[i] - ym[i]) * y.scale;
+            const float gz = (zp[i] - zm[i]) * z.scale;
             const float scale = strength / (std::sqrt(gx * gx + gy * gy + gz * gz) + 1e-20f);
             const float nxv = gx * scale, nyv = gy * scale, nzv = gz * scale;
+            const std::size_t c = c0 + std::size_t(i);
             const float* w = &s.curl[3 * c];
             cv[3 * c] = nyv * w[2] - nzv * w[1];
             cv[3 * c + 1] = nzv * w[0] - nxv * w[2];
