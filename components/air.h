@@ -44,6 +44,7 @@ struct AirScratch {
     std::vector<float> r, p, q;
     std::vector<float> u, v, w, smoke, heat;           ///< the advection's outputs, swapped with the fields
     std::vector<float> cellVelocity, curl, curlLength; ///< the vorticity confinement's, 3 n, 3 n, n
+    std::vector<std::int32_t> owner;                   ///< the voxeliser's: per cell, the body it is in
 };
 
 /// The grid, its parameters and its fields (README, "Air").

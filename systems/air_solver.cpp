@@ -53,6 +53,16 @@ T sumRows(WorkerPool& pool, int ny, int nz, T zero, F&& rowSum) {
     });
 }
 
+/// A sum and a count that pool.sum can combine (for a mean).
+struct Total {
+    double sum = 0.0, count = 0.0;
+    Total& operator+=(const Total& o) {
+        sum += o.sum;
+        count += o.count;
+        return *this;
+    }
+};
+
 /// A maximum that pool.sum can combine (+= keeps the larger).
 struct Largest {
     double value = 0.0;
@@ -308,14 +318,6 @@ float outflow(const Air& air, int i, int j, int k) {
 void removeMean(const Air& air, std::vector<float>& x, WorkerPool& pool) {
     const Padded g(air.cells);
     const std::vector<float>& relax = air.scratch.levels[0].relax;
-    struct Total {
-        double sum = 0.0, count = 0.0;
-        Total& operator+=(const Total& o) {
-            sum += o.sum;
-            count += o.count;
-            return *this;
-        }
-    };
     const Total total = sumRows(pool, g.ny, g.nz, Total{}, [&](int j, int k) {
         Total t;
         const std::size_t row = g.at(0, j, k);
@@ -536,15 +538,18 @@ void buoyancy(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     const int n[3] = {air.cells[0], air.cells[1], air.cells[2]};
     const double g = length(gravity);
     const Vec3 down = g > 0.0 ? gravity * (1.0 / g) : Vec3{0.0, -1.0, 0.0};
-    const double meanHeat = sumRows(pool, n[1], n[2], 0.0,
-                                    [&](int j, int k) {
-                                        double s = 0.0;
-                                        for (int i = 0; i < n[0]; ++i) {
-                                            s += double(air.heat[air.at(i, j, k)]);
-                                        }
-                                        return s;
-                                    }) /
-                            double(air.cellCount());
+    // the mean over the air's cells (a body's cells hold no heat)
+    const Total heatInAir = sumRows(pool, n[1], n[2], Total{}, [&](int j, int k) {
+        Total t;
+        for (int i = 0; i < n[0]; ++i) {
+            if (air.solid.empty() || !air.solid[air.at(i, j, k)]) {
+                t.sum += double(air.heat[air.at(i, j, k)]);
+                t.count += 1.0;
+            }
+        }
+        return t;
+    });
+    const double meanHeat = heatInAir.count > 0.0 ? heatInAir.sum / heatInAir.count : 0.0;
     const auto weight = float(air.smokeWeight), lift = float(air.heatLift), mean = float(meanHeat);
     std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
     const double along[3] = {down.x, down.y, down.z};
@@ -836,11 +841,14 @@ void projectAir(Air& air, WorkerPool& pool) {
 }
 
 double airDivergenceMax(const Air& air, WorkerPool& pool) {
+    const Padded g(air.cells);
+    const std::vector<float>& in = air.scratch.levels[0].inAir;
     return sumRows(pool, air.cells[1], air.cells[2], Largest{},
                    [&](int j, int k) {
                        Largest m;
                        for (int i = 0; i < air.cells[0]; ++i) {
-                           if (air.solid.empty() || !air.solid[air.at(i, j, k)]) {
+                           // the cells of the pressure problem (not a body's, nor air shut in by bodies)
+                           if (in[g.at(i, j, k)] > 0.0f) {
                                m.value = std::max(m.value, double(std::abs(outflow(air, i, j, k))));
                            }
                        }

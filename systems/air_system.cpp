@@ -18,8 +18,9 @@ namespace {
 
 constexpr double kMaxCellsPerSide = 1024.0;
 /// Bytes a cell holds: the fields and the advection's copies (10 floats), the projection's padded vectors
-/// and its levels (about 10 floats), the vorticity's scratch (7 floats); measured 108 at 64^3.
-constexpr std::uint64_t kBytesPerCell = 112;
+/// and its levels (about 11 floats), the vorticity's scratch (7 floats), the voxeliser's (an int); measured
+/// 118 at 64^3 without bodies (BM_Air64Step), 4 more with them.
+constexpr std::uint64_t kBytesPerCell = 124;
 
 constexpr std::array<std::string_view, 6> kSides{"-x", "+x", "-y", "+y", "-z", "+z"};
 
@@ -180,8 +181,9 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
     const double from[3] = {at.x - reach.x - origin.x, at.y - reach.y - origin.y, at.z - reach.z - origin.z};
     const double to[3] = {at.x + reach.x - origin.x, at.y + reach.y - origin.y, at.z + reach.z - origin.z};
     for (std::size_t a = 0; a < 3; ++a) {
-        lo[a] = std::clamp(int(std::floor(from[a] / air.cell)) - 1, 0, air.cells[a]);
-        hi[a] = std::clamp(int(std::ceil(to[a] / air.cell)) + 1, 0, air.cells[a]);
+        // clamped as doubles first: a reach of many cells must not overflow an int
+        lo[a] = int(std::clamp(std::floor(from[a] / air.cell) - 1.0, 0.0, double(air.cells[a])));
+        hi[a] = int(std::clamp(std::ceil(to[a] / air.cell) + 1.0, 0.0, double(air.cells[a])));
     }
     const auto smoke = float(source.smoke * dt), heat = float(source.heat * dt);
     int fed = 0;
@@ -202,7 +204,7 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
         int c[3];
         const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
         for (std::size_t a = 0; a < 3; ++a) {
-            c[a] = std::clamp(int(std::floor(local[a] / air.cell)), 0, air.cells[a] - 1);
+            c[a] = int(std::clamp(std::floor(local[a] / air.cell), 0.0, double(air.cells[a] - 1)));
         }
         air.smoke[air.at(c[0], c[1], c[2])] += smoke;
         air.heat[air.at(c[0], c[1], c[2])] += heat;
@@ -235,7 +237,16 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
 
 void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
     const std::size_t n = air.cellCount();
-    std::vector<std::int32_t> owner(n, -1); // per cell: the body it is inside, the last one listed
+    if (bodies.empty()) {
+        air.fixedFaces.clear();
+        if (!air.solid.empty()) {
+            air.solid.clear();
+            air.solidChanged = true;
+        }
+        return;
+    }
+    std::vector<std::int32_t>& owner = air.scratch.owner; // per cell: the body it is inside, the last listed
+    owner.assign(n, -1);
     const Vec3 origin = air.origin();
     const Vec3 end = origin + Vec3{air.cells[0] * air.cell, air.cells[1] * air.cell, air.cells[2] * air.cell};
     bool any = false;
@@ -296,6 +307,10 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
                         for (int side = 0; side < 2; ++side) {
                             std::array<int, 3> f{i, j, k};
                             f[a] += side; // the face's index along its axis
+                            if ((f[a] == 0 || f[a] == air.cells[a]) &&
+                                air.border[2 * a + std::size_t(side)] == AirBorder::Closed) {
+                                continue; // a closed side's face stays a wall
+                            }
                             Vec3 at = origin + Vec3{f[0] + 0.5, f[1] + 0.5, f[2] + 0.5} * air.cell;
                             (a == 0 ? at.x : a == 1 ? at.y : at.z) -= 0.5 * air.cell;
                             const Vec3 v = bodies[std::size_t(b)]->velocityAt(at);

@@ -188,19 +188,20 @@ double ctxDt(World& w) {
     return w.resource<SceneDef>().dt;
 }
 
-/// The air's share of the drag: with keep = e^(-drag dt) the update's decay, the particles inside the air's
-/// box gain u (1 - keep), u the air's velocity where they are, so that with the decay v moves to u + (v -
-/// u) keep: the exact drag towards the air over the step.
+/// The drag of an emitter that rides an air grid, exact over the step: with keep = e^(-drag dt), a
+/// particle inside the air's box goes to u + (v - u) keep, u the air's velocity where it is; one outside
+/// it to v keep (still air). The update then runs without drag of its own.
 void applyAir(ParticlePool& p, const Air& air, float drag, float dt, WorkerPool& pool) {
-    const float share = 1.0f - std::exp(-drag * dt);
+    const float keep = std::exp(-drag * dt);
     pool.forEach(p.count, 4096, [&](std::size_t i) {
         const Vec3 x{p.px[i], p.py[i], p.pz[i]};
+        Vec3 u;
         if (airContains(air, x)) {
-            const Vec3 u = airVelocityAt(air, x);
-            p.vx[i] += float(u.x) * share;
-            p.vy[i] += float(u.y) * share;
-            p.vz[i] += float(u.z) * share;
+            u = airVelocityAt(air, x);
         }
+        p.vx[i] = float(u.x) + (p.vx[i] - float(u.x)) * keep;
+        p.vy[i] = float(u.y) + (p.vy[i] - float(u.y)) * keep;
+        p.vz[i] = float(u.z) + (p.vz[i] - float(u.z)) * keep;
     });
 }
 
@@ -482,10 +483,11 @@ void updateParticles(World& world, const StepContext& ctx) {
         if (fields && fields->size() > 0) {
             applyFields(e.pool, fields->values(), dt, pool);
         }
-        if (e.air != kNullEntity && e.def.drag > 0.0) {
+        const bool rides = e.air != kNullEntity && e.def.drag > 0.0;
+        if (rides) {
             applyAir(e.pool, world.get<Air>(e.air), static_cast<float>(e.def.drag), dt, pool);
         }
-        advanceParticles(e.pool, gravity, static_cast<float>(e.def.drag), dt, pool);
+        advanceParticles(e.pool, gravity, rides ? 0.0f : static_cast<float>(e.def.drag), dt, pool);
     });
 }
 

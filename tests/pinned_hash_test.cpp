@@ -29,7 +29,7 @@ const std::map<std::string, std::uint64_t>& pinned() {
         {"avalanche", 0x6d69c19afa328e10ull},     {"bridge", 0x3408f5c575e2bedeull},
         {"contraption2d", 0xaf1caa8504ef4438ull}, {"crane", 0x2ec4afa5ae8257e7ull},
         {"curtain", 0x867ac71c16d4953bull},       {"drape", 0x74412b0c8b3c1103ull},
-        {"drape_sphere", 0xac014db4a1b3baf6ull},  {"fan_flag", 0x886a420b0170024cull},
+        {"drape_sphere", 0xac014db4a1b3baf6ull},  {"fan_flag", 0xac6c9241253d5f7full},
         {"fem_jelly", 0x8129f6f079a8488dull},     {"fireworks", 0x3bdcd0d4e9e2040dull},
         {"flag", 0x6520a37fdfd7c441ull},          {"fountain", 0x96c4ec7da42939c6ull},
         {"harbour", 0x1658e5d030925885ull},       {"integrators", 0x8963cf2ba1e41e6full},
@@ -39,7 +39,7 @@ const std::map<std::string, std::uint64_t>& pinned() {
         {"rope", 0x88334b26b042cf35ull},          {"smoke", 0x705a8ff5adce9556ull},
         {"stress_cloth", 0x95c511dfa8cbad49ull},  {"tablecloth", 0xfb7dd1be99b6fe87ull},
         {"twist", 0x9503f84857a28cc7ull},         {"wake", 0x0d83431e8bb04badull},
-        {"every_kind", 0x8cefd7086915de28ull},
+        {"every_kind", 0xb050df2c24a6e6ebull},
     };
     return table;
 }
