@@ -45,6 +45,7 @@ struct AirScratch {
     std::vector<float> u, v, w, smoke, heat;           ///< the advection's outputs, swapped with the fields
     std::vector<float> cellVelocity, curl, curlLength; ///< the vorticity confinement's, 3 n, 3 n, n
     std::vector<std::int32_t> owner;                   ///< the voxeliser's: per cell, the body it is in
+    std::vector<std::uint8_t> solid;                   ///< the voxeliser's: this step's solid cells
 };
 
 /// The grid, its parameters and its fields (README, "Air").

@@ -74,6 +74,11 @@ struct Largest {
 
 // ---- the projection's multigrid ----
 
+/// The six neighbours of the cell at c in a padded grid, in a fixed order (the padding reads zero).
+inline float neighbourSum(const float* c, const Padded& g) {
+    return ((c[-1] + c[1]) + (c[-g.sx] + c[g.sx])) + (c[-g.sy] + c[g.sy]);
+}
+
 /// y = A x on a level: A x = weight (count x_c - sum of the six neighbours), the padding reading zero.
 void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& pool) {
     const Padded g(level.n);
@@ -85,8 +90,7 @@ void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& poo
         const float* in = level.inAir.data() + row; // a solid cell stays out: 0
         float* out = y + row;
         for (int i = 0; i < g.nx; ++i) {
-            const float around =
-                ((c[i - 1] + c[i + 1]) + (c[i - g.sx] + c[i + g.sx])) + (c[i - g.sy] + c[i + g.sy]);
+            const float around = neighbourSum(c + i, g);
             out[i] = in[i] * (d[i] * c[i] - weight * around);
         }
     });
@@ -104,8 +108,7 @@ void jacobi(const AirLevel& level, const float* x, const float* b, float* out, W
         const float* rhs = b + row;
         float* o = out + row;
         for (int i = 0; i < g.nx; ++i) {
-            const float around =
-                ((c[i - 1] + c[i + 1]) + (c[i - g.sx] + c[i + g.sx])) + (c[i - g.sy] + c[i + g.sy]);
+            const float around = neighbourSum(c + i, g);
             o[i] = c[i] + relax[i] * (rhs[i] - (d[i] * c[i] - weight * around));
         }
     });

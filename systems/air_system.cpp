@@ -280,7 +280,8 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
             }
         }
     }
-    std::vector<std::uint8_t> solid;
+    std::vector<std::uint8_t>& solid = air.scratch.solid; // compared with the last step's, then swapped in
+    solid.clear();
     air.fixedFaces.clear();
     if (any) {
         solid.resize(n);
@@ -328,7 +329,7 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
         }
     }
     if (solid != air.solid) {
-        air.solid = std::move(solid);
+        air.solid.swap(solid);
         air.solidChanged = true;
     }
 }

@@ -59,23 +59,23 @@ struct MovingAir {
     }
 };
 
-/// The winds that act on a network through its triangles (a cloth's) or on each mass: the wind fields
-/// first, in the scene's order, then the air grids.
-std::vector<MovingAir> movingAir(const Environment& env) {
-    std::vector<MovingAir> out;
+/// Calls fn for each moving air that acts on a network through its triangles (a cloth's) or on each mass:
+/// the wind fields first, in the scene's order, then the air grids (no list is built: this runs at every
+/// force evaluation).
+template <class F>
+void forEachMovingAir(const Environment& env, F&& fn) {
     if (env.fields) {
         for (const ForceField& field : *env.fields) {
             if (field.kind == FieldKind::Wind) {
-                out.push_back({&field, nullptr, field.coefficient});
+                fn(MovingAir{&field, nullptr, field.coefficient});
             }
         }
     }
     if (env.air) {
         for (const Air* air : *env.air) {
-            out.push_back({nullptr, air, air->coefficient});
+            fn(MovingAir{nullptr, air, air->coefficient});
         }
     }
-    return out;
 }
 
 bool surfaceWind(const SpringNetwork& net) {
@@ -143,7 +143,7 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
     }
     // wind on cloth: per triangle, along its normal, shared by its corners
     const bool gather = shareOut(pool, net.triangles.size(), kTriangleGrain);
-    for (const MovingAir& wind : movingAir(env)) {
+    forEachMovingAir(env, [&](const MovingAir& wind) {
         // with A the area-weighted normal (|A| = area), area ((w - v) . n) n = ((w - v) . A) A / |A|
         const double perCorner = wind.coefficient / 3.0;
         auto windOn = [&](std::size_t k, Vec3& ft) {
@@ -167,7 +167,7 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
                     }
                 }
             }
-            continue;
+            return;
         }
         pool.forEach(net.triangles.size(), kTriangleGrain,
                      [&](std::size_t k) { inc.triangleActive[k] = windOn(k, inc.perTriangle[k]); });
@@ -178,7 +178,7 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
                 }
             }
         });
-    }
+    });
 }
 
 void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
@@ -238,9 +238,9 @@ void addWindDamping(const SpringNetwork& net, const Environment& env, double h, 
     inc.update(net);
     WorkerPool& pool = poolOr(env.pool);
     const bool gather = shareOut(pool, net.triangles.size(), kTriangleGrain);
-    for (const MovingAir& wind : movingAir(env)) {
+    forEachMovingAir(env, [&](const MovingAir& wind) {
         if (wind.coefficient == 0.0) {
-            continue;
+            return;
         }
         auto blockOf = [&](std::size_t k, Mat3& block) {
             const auto& t = net.triangles[k];
@@ -263,7 +263,7 @@ void addWindDamping(const SpringNetwork& net, const Environment& env, double h, 
                     }
                 }
             }
-            continue;
+            return;
         }
         pool.forEach(net.triangles.size(), kTriangleGrain,
                      [&](std::size_t k) { inc.triangleActive[k] = blockOf(k, inc.perTriangleBlock[k]); });
@@ -274,7 +274,7 @@ void addWindDamping(const SpringNetwork& net, const Environment& env, double h, 
                 }
             }
         });
-    }
+    });
 }
 
 bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len) {
