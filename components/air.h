@@ -43,6 +43,7 @@ struct AirScratch {
     std::vector<AirLevel> levels;
     std::vector<float> r, p, q;
     std::vector<float> u, v, w, smoke, heat;           ///< the advection's outputs, swapped with the fields
+    std::vector<float> back, back2;                    ///< MacCormack's step back (empty without it)
     std::vector<float> cellVelocity, curl, curlLength; ///< the vorticity confinement's, 3 n, 3 n, n
     std::vector<std::int32_t> owner;                   ///< the voxeliser's: per cell, the body it is in
     std::vector<std::uint8_t> solid;                   ///< the voxeliser's: this step's solid cells
@@ -61,6 +62,7 @@ struct Air {
     double heatLift = 0.0;    ///< m/s^2 per degree above the grid's mean: heat rises
     double dissipation = 0.0; ///< 1/s, smoke's decay
     double viscosity = 0.0;   ///< m^2/s
+    bool maccormack = false;  ///< advection with MacCormack's correction (else plain semi-Lagrangian)
     double tolerance = 1e-3;  ///< 1/s: the largest divergence a cell keeps after the projection
     double coefficient = 1.0; ///< how cloth and masses feel it, as a wind field's: N s/m per mass, N s/m^3
                               ///< per area on cloth

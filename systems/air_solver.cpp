@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <iterator>
 
 namespace tumble {
 
@@ -518,16 +519,64 @@ void advectLattice(const Lattices& velocity, const Lattice& from, const float* s
     });
 }
 
+/// A value kept within the lowest and highest of the eight lattice values a trilinear sample at c mixed.
+inline float withinCorner(float value, const Lattice& l, const float* field, const Corner& c) {
+    const std::size_t sy = std::size_t(l.nx), sz = std::size_t(l.nx) * std::size_t(l.ny);
+    const float* p = field + c.base;
+    const float corners[8] = {p[0], p[1], p[sy], p[sy + 1], p[sz], p[sz + 1], p[sz + sy], p[sz + sy + 1]};
+    const auto [lo, hi] = std::minmax_element(std::begin(corners), std::end(corners));
+    return std::clamp(value, *lo, *hi);
+}
+
+/// MacCormack's correction (Selle, Fedkiw, Kim, Liu and Rossignac 2008), after the forward step gave
+/// `out` and `out` carried back by the reverse step gave `back`: out + (from - back) / 2, half the forward
+/// step's error taken off, kept within the values the forward step's sample mixed (so no new extremum:
+/// the scheme stays stable where the correction would overshoot).
+template <int L>
+void correctLattice(const Lattices& velocity, const Lattice& from, const float* second, const float* back,
+                    const float* back2, float* out, float* out2, float scale, WorkerPool& pool) {
+    forRows(pool, from.ny, from.nz, [&](int j, int k) {
+        const std::size_t row = std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k);
+        const float y = float(j) + from.oy, z = float(k) + from.oz;
+        for (int i = 0; i < from.nx; ++i) {
+            float vx, vy, vz;
+            velocityAt<L>(velocity, i, j, k, scale, vx, vy, vz);
+            const Corner c = from.corner(float(i) + from.ox - vx, y - vy, z - vz);
+            const std::size_t at = row + std::size_t(i);
+            out[at] = withinCorner(out[at] + 0.5f * (from.f[at] - back[at]), from, from.f, c);
+            if (second != nullptr) {
+                out2[at] = withinCorner(out2[at] + 0.5f * (second[at] - back2[at]), from, second, c);
+            }
+        }
+    });
+}
+
+/// Lattice L's fields (`from`, and `second` on the same lattice) advected into out (and out2): one
+/// semi-Lagrangian step, or with MacCormack's correction, which needs a step back along the same velocity
+/// (into the scratch's `back` vectors).
+template <int L>
+void advectFields(Air& air, const Lattices& velocity, const Lattice& from, const float* second, float* out,
+                  float* out2, float scale, WorkerPool& pool) {
+    advectLattice<L>(velocity, from, second, out, out2, scale, pool);
+    if (!air.maccormack) {
+        return;
+    }
+    AirScratch& s = air.scratch;
+    const Lattice forward{out, from.nx, from.ny, from.nz, from.ox, from.oy, from.oz};
+    advectLattice<L>(velocity, forward, out2, s.back.data(), s.back2.data(), -scale, pool);
+    correctLattice<L>(velocity, from, second, s.back.data(), s.back2.data(), out, out2, scale, pool);
+}
+
 void advect(Air& air, double dt, WorkerPool& pool) {
     AirScratch& s = air.scratch;
     const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
     const Lattices velocity = velocityLattices(air);
     const auto scale = float(dt / air.cell);
-    advectLattice<0>(velocity, velocity.u, nullptr, s.u.data(), nullptr, scale, pool);
-    advectLattice<1>(velocity, velocity.v, nullptr, s.v.data(), nullptr, scale, pool);
-    advectLattice<2>(velocity, velocity.w, nullptr, s.w.data(), nullptr, scale, pool);
-    advectLattice<3>(velocity, {air.smoke.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, air.heat.data(),
-                     s.smoke.data(), s.heat.data(), scale, pool);
+    advectFields<0>(air, velocity, velocity.u, nullptr, s.u.data(), nullptr, scale, pool);
+    advectFields<1>(air, velocity, velocity.v, nullptr, s.v.data(), nullptr, scale, pool);
+    advectFields<2>(air, velocity, velocity.w, nullptr, s.w.data(), nullptr, scale, pool);
+    advectFields<3>(air, velocity, {air.smoke.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, air.heat.data(),
+                    s.smoke.data(), s.heat.data(), scale, pool);
     air.u.swap(s.u);
     air.v.swap(s.v);
     air.w.swap(s.w);
@@ -738,6 +787,10 @@ void initAir(Air& air) {
     s.w.assign(air.w.size(), 0.0f);
     s.smoke.assign(air.smoke.size(), 0.0f);
     s.heat.assign(air.heat.size(), 0.0f);
+    if (air.maccormack) {
+        s.back.assign(std::max({air.u.size(), air.v.size(), air.w.size()}), 0.0f);
+        s.back2.assign(air.heat.size(), 0.0f);
+    }
 }
 
 void projectAir(Air& air, WorkerPool& pool) {

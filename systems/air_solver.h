@@ -2,7 +2,10 @@
 // Stable fluids (Stam 1999) on the air's staggered grid (components/air.h), one fixed step:
 //   1. advection: every face's velocity and every cell's smoke and heat are taken from where the flow
 //      brought them, the point found by following the face's (or cell's) velocity back over the step,
-//      sampled trilinearly (semi-Lagrangian: unconditionally stable; first order, so it smooths);
+//      sampled trilinearly (semi-Lagrangian: unconditionally stable; first order, so it smooths); with
+//      `advection = "maccormack"`, the result carried back along the same velocity and half the
+//      difference from the start taken off, clamped to the values the first sample mixed (second order
+//      where the field is smooth; twice the cost);
 //   2. smoke's dissipation, implicit: s / (1 + dt d);
 //   3. forces: buoyancy along gravity, (smoke_weight s - heat_lift (T - mean T)) per unit of gravity's
 //      direction (a uniformly warm atmosphere feels none: Boussinesq, after Fedkiw, Stam and Jensen 2001),

@@ -21,6 +21,8 @@ constexpr double kMaxCellsPerSide = 1024.0;
 /// and its levels (about 11 floats), the vorticity's scratch (7 floats), the voxeliser's (an int); measured
 /// 118 at 64^3 without bodies (BM_Air64Step), 4 more with them.
 constexpr std::uint64_t kBytesPerCell = 124;
+/// MacCormack's step back: two floats a cell more.
+constexpr std::uint64_t kMacCormackBytesPerCell = 8;
 
 constexpr std::array<std::string_view, 6> kSides{"-x", "+x", "-y", "+y", "-z", "+z"};
 
@@ -78,11 +80,14 @@ void loadAir(TableReader& r, World& world, Entity entity, const SceneDef&) {
     air.heatLift = buoyancy[1];
     air.dissipation = r.number("dissipation", 0.0, 0.0, 1e4);
     air.viscosity = r.number("viscosity", 0.0, 0.0, 1e3);
+    air.maccormack =
+        r.choice("advection", "semi_lagrangian", {"semi_lagrangian", "maccormack"}) == "maccormack";
     air.tolerance = r.number("tolerance", 1e-3, 1e-9, 1e3);
     air.coefficient = r.number("coefficient", 1.0, 0.0, 1e6);
     air.dumpFields = r.boolean("dump_fields", false);
     const std::uint64_t n = std::uint64_t(air.cellCount());
-    r.charge("cells", n * kBytesPerCell, r.where() + " (" + std::to_string(n) + " cells)");
+    r.charge("cells", n * (kBytesPerCell + (air.maccormack ? kMacCormackBytesPerCell : 0)),
+             r.where() + " (" + std::to_string(n) + " cells)");
     air.centre = world.get<Transform>(entity).position;
     initAir(air);
     world.emplace<Air>(entity, std::move(air));
