@@ -67,6 +67,10 @@ struct Air {
     double coefficient = 1.0; ///< how cloth and masses feel it, as a wind field's: N s/m per mass, N s/m^3
                               ///< per area on cloth
     bool dumpFields = false;  ///< dump the whole fields, not only their summary
+    // how it is drawn
+    std::array<float, 3> smokeColour{0.92f, 0.92f, 0.94f};
+    double smokeOpacity = 20.0; ///< 1/m per unit of density: 1 m of smoke of density 0.05 lets e^-1 through
+    int velocitySlice = -1; ///< the axis across the drawn slice of velocity arrows (0 x, 1 y, 2 z); -1 none
 
     // the fields, x fastest, then y, then z
     std::vector<float> u, v, w;     ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)

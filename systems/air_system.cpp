@@ -85,6 +85,11 @@ void loadAir(TableReader& r, World& world, Entity entity, const SceneDef&) {
     air.tolerance = r.number("tolerance", 1e-3, 1e-9, 1e3);
     air.coefficient = r.number("coefficient", 1.0, 0.0, 1e6);
     air.dumpFields = r.boolean("dump_fields", false);
+    const auto colour = r.vector<3>("smoke_color", {0.92, 0.92, 0.94}, 0.0, 1.0);
+    air.smokeColour = {float(colour[0]), float(colour[1]), float(colour[2])};
+    air.smokeOpacity = r.number("smoke_opacity", 20.0, 0.0, 1e6);
+    const std::string slice = r.choice("velocity_slice", "none", {"none", "x", "y", "z"});
+    air.velocitySlice = slice == "none" ? -1 : slice[0] - 'x';
     const std::uint64_t n = std::uint64_t(air.cellCount());
     r.charge("cells", n * (kBytesPerCell + (air.maccormack ? kMacCormackBytesPerCell : 0)),
              r.where() + " (" + std::to_string(n) + " cells)");

@@ -70,7 +70,7 @@ const std::vector<SystemEntry>& builtinSystems() {
          accessOf<Reads<SceneDef, Transform, AirSource, RigidBody>, Writes<Air>>()},
         {"render", Phase::Frame, renderWorld,
          accessOf<Reads<SceneDef, SpringNetwork, RigidBody, RigidBody2D, Transform, Water, ParticleEmitter,
-                        RenderHistory, PoseHistory>,
+                        Air, RenderHistory, PoseHistory>,
                   Writes<RenderOutput, Renderer>>()},
     };
     return table;

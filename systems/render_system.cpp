@@ -11,6 +11,7 @@
 #include "engine/render_output.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
+#include "systems/render_air.h"
 
 #include <GLES3/gl3.h>
 #include <stb/stb_image_write.h>
@@ -287,12 +288,6 @@ std::vector<float> cylinderMesh(int slices = 32) {
 }
 
 /// A vertex of a line (position, colour; size unused) or a particle instance (centre, colour, size).
-struct FlatVertex {
-    float x, y, z;
-    float r, g, b, a;
-    float size;
-};
-
 } // namespace
 
 /// Everything GL the renderer keeps between frames.
@@ -320,6 +315,7 @@ struct Renderer {
     std::vector<FlatVertex> flat;                 ///< scratch: line vertices or particle instances
     std::vector<std::uint8_t> pixels;             ///< the last image read back
     std::map<const ShapeMesh*, Mesh> shapeMeshes; ///< convex hulls and meshes, uploaded once
+    SmokePass smoke;                              ///< the air grids' smoke
     bool drawn = false;
     bool live = false; ///< a context is current and the objects below were made in it
 
@@ -333,6 +329,7 @@ struct Renderer {
             return; // no context was had: nothing was made
         }
         target.reset();
+        smoke.release();
         for (GLuint program : {meshProgram, flatProgram, particleProgram}) {
             glDeleteProgram(program);
         }
@@ -404,6 +401,7 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     glVertexAttribDivisor(2, 1);
     r.particleProgram =
         compileProgram(readText(shaders + "particle.vert"), readText(shaders + "particle.frag"), "particle");
+    r.smoke.make(readText(shaders + "smoke.vert"), readText(shaders + "smoke.frag"));
     r.mesh = {
         glGetUniformLocation(r.meshProgram, "uViewProjection"), glGetUniformLocation(r.meshProgram, "uModel"),
         glGetUniformLocation(r.meshProgram, "uColor"),          glGetUniformLocation(r.meshProgram, "uGrid"),
@@ -771,6 +769,8 @@ void renderWorld(World& world, const StepContext& ctx) {
         }
         drawLines(r);
     });
+    appendVelocityArrows(world, r.flat);
+    drawLines(r);
     glUseProgram(r.meshProgram);
     const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
     glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
@@ -793,6 +793,11 @@ void renderWorld(World& world, const StepContext& ctx) {
                      GL_STREAM_DRAW);
         glDrawArraysInstanced(GL_TRIANGLES, 0, r.ball.vertices, GLsizei(net.x.size()));
     });
+
+    // smoke, marched up to the opaque scene and blended over it
+    drawSmoke(world, r.smoke,
+              {viewProjection, eye, r.target->id(), r.target->width(), r.target->height(), r.cube.vao,
+               r.cube.vertices});
 
     // particles: camera-facing quads (instanced), blended after everything opaque
     glUseProgram(r.particleProgram);

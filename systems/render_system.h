@@ -2,7 +2,7 @@
 // The renderer: a frame-phase system that draws the world headlessly (app/gl_context.h) and writes PNG
 // frames. It only reads components, so rendering never changes the simulation or its hash.
 // Reads: SceneDef (camera, image size), RenderOutput, Transform, RigidBody, RigidBody2D, SpringNetwork,
-// ParticleEmitter, RenderHistory, PoseHistory. Writes: RenderOutput (the files written). Phase: frame;
+// ParticleEmitter, Air, RenderHistory, PoseHistory. Writes: RenderOutput (the files written). Phase: frame;
 // and, first in the fixed phase while rendering, `render_history`, which keeps each spring network's
 // positions and each moving body's pose before the step (RenderHistory, PoseHistory), so that a frame
 // falling between two steps is drawn between them (StepContext::alpha).
