@@ -28,22 +28,32 @@ struct Padded {
     std::size_t at(int i, int j, int k) const { return std::size_t((i + 1) + sx * (j + 1) + sy * (k + 1)); }
 };
 
+/// Rows of cells a grid needs before its loops are shared out: a coarse level's loop takes a few
+/// microseconds, less than waking the workers and waiting for them (the same chunks run in the same order
+/// on one thread, so the bits are the same).
+constexpr std::size_t kSharedRows = 256;
+
+WorkerPool& poolForRows(WorkerPool& pool, int ny, int nz) {
+    return std::size_t(ny) * std::size_t(nz) < kSharedRows ? serialPool() : pool;
+}
+
 /// Calls fn(j, k) for every row of cells (j, k), z-slabs shared out over the pool.
 template <class F>
 void forRows(WorkerPool& pool, int ny, int nz, F&& fn) {
-    pool.forChunks(std::size_t(nz), kSlabs, [&](std::size_t, std::size_t k0, std::size_t k1) {
-        for (std::size_t k = k0; k < k1; ++k) {
-            for (int j = 0; j < ny; ++j) {
-                fn(j, int(k));
+    poolForRows(pool, ny, nz)
+        .forChunks(std::size_t(nz), kSlabs, [&](std::size_t, std::size_t k0, std::size_t k1) {
+            for (std::size_t k = k0; k < k1; ++k) {
+                for (int j = 0; j < ny; ++j) {
+                    fn(j, int(k));
+                }
             }
-        }
-    });
+        });
 }
 
 /// The sum over the rows of rowSum(j, k), per slab chunk and then in chunk order.
 template <class T, class F>
 T sumRows(WorkerPool& pool, int ny, int nz, T zero, F&& rowSum) {
-    return pool.sum(std::size_t(nz), kSlabs, zero, [&](std::size_t k0, std::size_t k1) {
+    return poolForRows(pool, ny, nz).sum(std::size_t(nz), kSlabs, zero, [&](std::size_t k0, std::size_t k1) {
         T s = zero;
         for (std::size_t k = k0; k < k1; ++k) {
             for (int j = 0; j < ny; ++j) {
@@ -97,6 +107,24 @@ void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& poo
     });
 }
 
+/// out = b - A x on a level, in one pass (the same arithmetic as applyLevel, then the difference).
+void residualLevel(const AirLevel& level, const float* x, const float* b, float* out, WorkerPool& pool) {
+    const Padded g(level.n);
+    const float weight = level.weight;
+    forRows(pool, g.ny, g.nz, [&](int j, int k) {
+        const std::size_t row = g.at(0, j, k);
+        const float* c = x + row;
+        const float* d = level.diagonal.data() + row;
+        const float* in = level.inAir.data() + row;
+        const float* rhs = b + row;
+        float* o = out + row;
+        for (int i = 0; i < g.nx; ++i) {
+            const float around = neighbourSum(c + i, g);
+            o[i] = rhs[i] - in[i] * (d[i] * c[i] - weight * around);
+        }
+    });
+}
+
 /// One weighted Jacobi sweep: out = x + omega D^-1 (b - A x).
 void jacobi(const AirLevel& level, const float* x, const float* b, float* out, WorkerPool& pool) {
     const Padded g(level.n);
@@ -143,15 +171,7 @@ void vcycle(std::vector<AirLevel>& levels, std::size_t l, const float* b, Worker
     const Padded g(level.n);
     AirLevel& coarse = levels[l + 1];
     const Padded c(coarse.n);
-    // residual into scratch
-    applyLevel(level, level.x.data(), level.scratch.data(), pool);
-    forRows(pool, g.ny, g.nz, [&](int j, int k) {
-        const std::size_t row = g.at(0, j, k);
-        for (int i = 0; i < g.nx; ++i) {
-            level.scratch[row + std::size_t(i)] =
-                b[row + std::size_t(i)] - level.scratch[row + std::size_t(i)];
-        }
-    });
+    residualLevel(level, level.x.data(), b, level.scratch.data(), pool);
     // restriction: the sum of a coarse cell's (up to) eight cells; a missing one is padding, zero
     forRows(pool, c.ny, c.nz, [&](int j, int k) {
         for (int i = 0; i < c.nx; ++i) {
@@ -381,15 +401,23 @@ double largestCell(const Air& air, const std::vector<float>& a, WorkerPool& pool
         .value;
 }
 
-/// x += alpha p; r -= alpha q (or p = z + beta p with the second form).
-void axpy(const Air& air, std::vector<float>& y, float alpha, const std::vector<float>& x, WorkerPool& pool) {
+/// CG's update, in one pass: x += alpha p, r -= alpha q; returns the largest |r| of a cell.
+double stepAndLargest(const Air& air, std::vector<float>& x, std::vector<float>& r, float alpha,
+                      const std::vector<float>& p, const std::vector<float>& q, WorkerPool& pool) {
     const Padded g(air.cells);
-    forRows(pool, g.ny, g.nz, [&](int j, int k) {
-        const std::size_t row = g.at(0, j, k);
-        for (int i = 0; i < g.nx; ++i) {
-            y[row + std::size_t(i)] += alpha * x[row + std::size_t(i)];
-        }
-    });
+    return sumRows(pool, g.ny, g.nz, Largest{},
+                   [&](int j, int k) {
+                       Largest m;
+                       const std::size_t row = g.at(0, j, k);
+                       for (int i = 0; i < g.nx; ++i) {
+                           const std::size_t c = row + std::size_t(i);
+                           x[c] += alpha * p[c];
+                           r[c] += -alpha * q[c];
+                           m.value = std::max(m.value, double(std::abs(r[c])));
+                       }
+                       return m;
+                   })
+        .value;
 }
 
 // ---- advection and forces ----
@@ -440,22 +468,27 @@ Lattices velocityLattices(const Air& air) {
 }
 
 /// The two indices (or one) of a lattice along an axis around a point offset from index i by d half
-/// cells (d = -1, 0 or 1), clamped to [0, n).
-template <int D>
+/// cells (d = -1, 0 or 1), clamped to [0, n) when `Clamp` (at the box's sides; elsewhere they are inside).
+template <int D, bool Clamp>
 void around(int i, int n, int (&out)[2]) {
-    out[0] = std::clamp(D < 0 ? i - 1 : i, 0, n - 1);
-    out[1] = std::clamp(D > 0 ? i + 1 : i, 0, n - 1);
+    if constexpr (Clamp) {
+        out[0] = std::clamp(D < 0 ? i - 1 : i, 0, n - 1);
+        out[1] = std::clamp(D > 0 ? i + 1 : i, 0, n - 1);
+    } else {
+        out[0] = D < 0 ? i - 1 : i;
+        out[1] = D > 0 ? i + 1 : i;
+    }
 }
 
 /// Lattice c at a point of another lattice whose offsets differ by (DX, DY, DZ) half cells, at that
 /// lattice's index (i, j, k): the mean of the two values either side along each axis where the point is
 /// half way, which is what trilinear sampling there gives, without the search for the corner.
-template <int DX, int DY, int DZ>
+template <int DX, int DY, int DZ, bool Clamp>
 float aligned(const Lattice& c, int i, int j, int k) {
     int is[2], js[2], ks[2];
-    around<DX>(i, c.nx, is);
-    around<DY>(j, c.ny, js);
-    around<DZ>(k, c.nz, ks);
+    around<DX, Clamp>(i, c.nx, is);
+    around<DY, Clamp>(j, c.ny, js);
+    around<DZ, Clamp>(k, c.nz, ks);
     constexpr int cx = DX != 0 ? 2 : 1, cy = DY != 0 ? 2 : 1, cz = DZ != 0 ? 2 : 1;
     float sum = 0.0f;
     for (int z = 0; z < cz; ++z) {
@@ -470,32 +503,47 @@ float aligned(const Lattice& c, int i, int j, int k) {
 }
 
 /// The velocity (in cells a step) at point (i, j, k) of lattice L: 0 the u faces, 1 the v faces, 2 the w
-/// faces, 3 the cells' centres.
-template <int L>
+/// faces, 3 the cells' centres; `Clamp` for a point whose neighbours may lie past the box's sides.
+template <int L, bool Clamp>
 void velocityAt(const Lattices& vel, int i, int j, int k, float scale, float& x, float& y, float& z) {
     const auto index = [](const Lattice& l, int a, int b, int c) {
         return std::size_t(a) + std::size_t(l.nx) * (std::size_t(b) + std::size_t(l.ny) * c);
     };
     if constexpr (L == 0) {
         x = vel.u.f[index(vel.u, i, j, k)];
-        y = aligned<-1, 1, 0>(vel.v, i, j, k);
-        z = aligned<-1, 0, 1>(vel.w, i, j, k);
+        y = aligned<-1, 1, 0, Clamp>(vel.v, i, j, k);
+        z = aligned<-1, 0, 1, Clamp>(vel.w, i, j, k);
     } else if constexpr (L == 1) {
-        x = aligned<1, -1, 0>(vel.u, i, j, k);
+        x = aligned<1, -1, 0, Clamp>(vel.u, i, j, k);
         y = vel.v.f[index(vel.v, i, j, k)];
-        z = aligned<0, -1, 1>(vel.w, i, j, k);
+        z = aligned<0, -1, 1, Clamp>(vel.w, i, j, k);
     } else if constexpr (L == 2) {
-        x = aligned<1, 0, -1>(vel.u, i, j, k);
-        y = aligned<0, 1, -1>(vel.v, i, j, k);
+        x = aligned<1, 0, -1, Clamp>(vel.u, i, j, k);
+        y = aligned<0, 1, -1, Clamp>(vel.v, i, j, k);
         z = vel.w.f[index(vel.w, i, j, k)];
     } else {
-        x = aligned<1, 0, 0>(vel.u, i, j, k);
-        y = aligned<0, 1, 0>(vel.v, i, j, k);
-        z = aligned<0, 0, 1>(vel.w, i, j, k);
+        x = aligned<1, 0, 0, Clamp>(vel.u, i, j, k);
+        y = aligned<0, 1, 0, Clamp>(vel.v, i, j, k);
+        z = aligned<0, 0, 1, Clamp>(vel.w, i, j, k);
     }
     x *= scale;
     y *= scale;
     z *= scale;
+}
+
+/// velocityAt for a point of lattice L (whose shape `from` has), clamping only where a neighbour the
+/// averages read may lie past the box's sides: the first and last faces along the lattice's own axis
+/// (the cells' centres never reach past them). Both give the same bits where neither clamps.
+template <int L>
+void velocityAtPoint(const Lattices& vel, const Lattice& from, int i, int j, int k, float scale, float& x,
+                     float& y, float& z) {
+    const bool side = (L == 0 && (i == 0 || i == from.nx - 1)) || (L == 1 && (j == 0 || j == from.ny - 1)) ||
+                      (L == 2 && (k == 0 || k == from.nz - 1));
+    if (side) {
+        velocityAt<L, true>(vel, i, j, k, scale, x, y, z);
+    } else {
+        velocityAt<L, false>(vel, i, j, k, scale, x, y, z);
+    }
 }
 
 /// Every point of lattice L (whose shape `from` has) takes `from`'s fields (one, or two sharing the
@@ -509,7 +557,7 @@ void advectLattice(const Lattices& velocity, const Lattice& from, const float* s
         const float y = float(j) + from.oy, z = float(k) + from.oz;
         for (int i = 0; i < from.nx; ++i) {
             float vx, vy, vz;
-            velocityAt<L>(velocity, i, j, k, scale, vx, vy, vz);
+            velocityAtPoint<L>(velocity, from, i, j, k, scale, vx, vy, vz);
             const Corner c = from.corner(float(i) + from.ox - vx, y - vy, z - vz);
             out[row + std::size_t(i)] = from.at(from.f, c);
             if (second != nullptr) {
@@ -540,7 +588,7 @@ void correctLattice(const Lattices& velocity, const Lattice& from, const float* 
         const float y = float(j) + from.oy, z = float(k) + from.oz;
         for (int i = 0; i < from.nx; ++i) {
             float vx, vy, vz;
-            velocityAt<L>(velocity, i, j, k, scale, vx, vy, vz);
+            velocityAtPoint<L>(velocity, from, i, j, k, scale, vx, vy, vz);
             const Corner c = from.corner(float(i) + from.ox - vx, y - vy, z - vz);
             const std::size_t at = row + std::size_t(i);
             out[at] = withinCorner(out[at] + 0.5f * (from.f[at] - back[at]), from, from.f, c);
@@ -843,9 +891,7 @@ void projectAir(Air& air, WorkerPool& pool) {
                 break;
             }
             const auto alpha = float(rz / pq);
-            axpy(air, air.pressure, alpha, s.p, pool);
-            axpy(air, s.r, -alpha, s.q, pool);
-            if (largestCell(air, s.r, pool) <= enough) {
+            if (stepAndLargest(air, air.pressure, s.r, alpha, s.p, s.q, pool) <= enough) {
                 ++it;
                 break;
             }
