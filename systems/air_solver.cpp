@@ -7,6 +7,8 @@
 #include <cstring>
 #include <iterator>
 
+#include <emmintrin.h>
+
 namespace tumble {
 
 namespace {
@@ -634,16 +636,24 @@ inline Corner4 corner4(const Lattice& l, Float4 x, Float4 y, Float4 z) {
             fy - __builtin_convertvector(j, Float4), fz - __builtin_convertvector(k, Float4)};
 }
 
-/// Lattice::at for four points: each lane's eight values gathered, then the same interpolations.
+/// Lattice::at for four points: each lane's eight values gathered (as four pairs along x, each pair one
+/// 8-byte load, the four lanes' pairs transposed into two vectors), then the same interpolations.
 inline Float4 at4(const Lattice& l, const float* field, const Corner4& c) {
     const std::size_t sy = std::size_t(l.nx), sz = std::size_t(l.nx) * std::size_t(l.ny);
-    const std::size_t offsets[8] = {0, 1, sy, sy + 1, sz, sz + 1, sz + sy, sz + sy + 1};
+    const std::size_t pairs[4] = {0, sy, sz, sz + sy};
+    const float* p[4] = {field + std::size_t(c.base[0]), field + std::size_t(c.base[1]),
+                         field + std::size_t(c.base[2]), field + std::size_t(c.base[3])};
     Float4 v[8];
-    for (int lane = 0; lane < 4; ++lane) {
-        const float* p = field + std::size_t(c.base[lane]);
-        for (int n = 0; n < 8; ++n) {
-            v[n][lane] = p[offsets[n]];
-        }
+    for (int n = 0; n < 4; ++n) {
+        const auto pairAt = [&](int lane) {
+            double two; // the lane's value and the next along x, in one load
+            std::memcpy(&two, p[lane] + pairs[n], sizeof two);
+            return _mm_castpd_ps(_mm_set_sd(two));
+        };
+        const __m128 ab = _mm_unpacklo_ps(pairAt(0), pairAt(1)); // a0 b0 a1 b1
+        const __m128 cd = _mm_unpacklo_ps(pairAt(2), pairAt(3)); // c0 d0 c1 d1
+        v[2 * n] = Float4(_mm_movelh_ps(ab, cd));                // a0 b0 c0 d0
+        v[2 * n + 1] = Float4(_mm_movehl_ps(cd, ab));            // a1 b1 c1 d1
     }
     const auto lerp = [](Float4 a, Float4 b, Float4 t) { return a + t * (b - a); };
     const Float4 x00 = lerp(v[0], v[1], c.tx), x10 = lerp(v[2], v[3], c.tx);
