@@ -2,11 +2,13 @@
 // kind of component and in the scene; what a run has changed since the start stays; and it is recorded:
 // a replay of a run with set events (from the scenario or from --input) verifies.
 
+#include "components/air.h"
 #include "components/particles.h"
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
 #include "components/water.h"
+#include "systems/air_solver.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -433,6 +435,75 @@ value = 400.0
                          test::tempPath("set_bad")});
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_NE(r.err.find("masses and springs cannot change during a run"), std::string::npos) << r.err;
+}
+
+// An air grid's physics and drawing keys and a source's keys take a set event at its frame (the next step
+// runs with them: MacCormack's vectors made when it is switched on); its grid does not, and says so. Seen
+// to fail with the source's retune left out (the set refused as an unknown kind).
+TEST(SetEvent, AnAirGridsPhysicsAndASourceChangeLiveButNotTheGrid) {
+    const std::string scene = R"(
+[scene]
+name = "a"
+dt = 0.01
+[[entity]]
+name = "room"
+[entity.air]
+cells = [8, 8, 8]
+size = [1.0, 1.0, 1.0]
+[[entity]]
+name = "puff"
+[entity.air_source]
+air = "room"
+radius = 0.2
+[[event]]
+frame = 3
+action = "set"
+key = "room.air.vorticity"
+value = 0.5
+[[event]]
+frame = 3
+action = "set"
+key = "room.air.advection"
+value = "maccormack"
+[[event]]
+frame = 3
+action = "set"
+key = "puff.air_source.velocity"
+value = [0.0, 1.0, 0.0]
+[[event]]
+frame = 3
+action = "set"
+key = "puff.air_source.smoke"
+value = 4.0
+)";
+    auto sim = makeSimulation(scene);
+    run(*sim, 3);
+    EXPECT_EQ(component<Air>(*sim, "room").vorticity, 0.0);
+    EXPECT_FALSE(component<AirSource>(*sim, "puff").drives);
+    run(*sim, 2);
+    const Air& air = component<Air>(*sim, "room");
+    EXPECT_EQ(air.vorticity, 0.5);
+    ASSERT_TRUE(air.maccormack);
+    EXPECT_EQ(air.scratch.back.size(), air.u.size());
+    const AirSource& source = component<AirSource>(*sim, "puff");
+    EXPECT_EQ(source.smoke, 4.0);
+    EXPECT_TRUE(source.drives);
+    EXPECT_EQ(source.velocity.y, 1.0);
+    EXPECT_GT(airVelocityAt(air, {0.0, 0.0, 0.0}).y, 0.5) << "the source drives the air";
+
+    const std::string grid = test::writeTemp("set_air.toml", scene + R"(
+[[event]]
+frame = 4
+action = "set"
+key = "room.air.cells"
+value = [16, 16, 16]
+)");
+    const auto r = test::runTumble(
+        {"run", grid, "--frames", "6", "--no-render", "--quiet", "--out", test::tempPath("set_air")});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find("an air grid's cells, size, border and place cannot change during a run"),
+              std::string::npos)
+        << r.err;
 }
 
 } // namespace
