@@ -94,56 +94,42 @@ inline float neighbourSum(const float* c, const Padded& g) {
     return ((c[-1] + c[1]) + (c[-g.sx] + c[g.sx])) + (c[-g.sy] + c[g.sy]);
 }
 
-/// y = A x on a level: A x = weight (count x_c - sum of the six neighbours), the padding reading zero.
-void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& pool) {
+/// Calls fn(p, around) for every cell of a level, p its index in the padded vectors and around the sum
+/// of x at its six neighbours (the padding reading zero).
+template <class F>
+void forStencil(const AirLevel& level, const float* x, WorkerPool& pool, F&& fn) {
     const Padded g(level.n);
-    const float weight = level.weight;
     forRows(pool, g.ny, g.nz, [&](int j, int k) {
         const std::size_t row = g.at(0, j, k);
-        const float* c = x + row;
-        const float* d = level.diagonal.data() + row;
-        const float* in = level.inAir.data() + row; // a solid cell stays out: 0
-        float* out = y + row;
         for (int i = 0; i < g.nx; ++i) {
-            const float around = neighbourSum(c + i, g);
-            out[i] = in[i] * (d[i] * c[i] - weight * around);
+            const std::size_t p = row + std::size_t(i);
+            fn(p, neighbourSum(x + p, g));
         }
     });
+}
+
+/// y = A x on a level: A x = weight (count x_c - sum of the six neighbours), the padding reading zero.
+void applyLevel(const AirLevel& level, const float* x, float* y, WorkerPool& pool) {
+    const float weight = level.weight;
+    const float *d = level.diagonal.data(), *in = level.inAir.data(); // a solid cell stays out: 0
+    forStencil(level, x, pool,
+               [&](std::size_t p, float around) { y[p] = in[p] * (d[p] * x[p] - weight * around); });
 }
 
 /// out = b - A x on a level, in one pass (the same arithmetic as applyLevel, then the difference).
 void residualLevel(const AirLevel& level, const float* x, const float* b, float* out, WorkerPool& pool) {
-    const Padded g(level.n);
     const float weight = level.weight;
-    forRows(pool, g.ny, g.nz, [&](int j, int k) {
-        const std::size_t row = g.at(0, j, k);
-        const float* c = x + row;
-        const float* d = level.diagonal.data() + row;
-        const float* in = level.inAir.data() + row;
-        const float* rhs = b + row;
-        float* o = out + row;
-        for (int i = 0; i < g.nx; ++i) {
-            const float around = neighbourSum(c + i, g);
-            o[i] = rhs[i] - in[i] * (d[i] * c[i] - weight * around);
-        }
-    });
+    const float *d = level.diagonal.data(), *in = level.inAir.data();
+    forStencil(level, x, pool,
+               [&](std::size_t p, float around) { out[p] = b[p] - in[p] * (d[p] * x[p] - weight * around); });
 }
 
 /// One weighted Jacobi sweep: out = x + omega D^-1 (b - A x).
 void jacobi(const AirLevel& level, const float* x, const float* b, float* out, WorkerPool& pool) {
-    const Padded g(level.n);
     const float weight = level.weight;
-    forRows(pool, g.ny, g.nz, [&](int j, int k) {
-        const std::size_t row = g.at(0, j, k);
-        const float* c = x + row;
-        const float* d = level.diagonal.data() + row;
-        const float* relax = level.relax.data() + row;
-        const float* rhs = b + row;
-        float* o = out + row;
-        for (int i = 0; i < g.nx; ++i) {
-            const float around = neighbourSum(c + i, g);
-            o[i] = c[i] + relax[i] * (rhs[i] - (d[i] * c[i] - weight * around));
-        }
+    const float *d = level.diagonal.data(), *relax = level.relax.data();
+    forStencil(level, x, pool, [&](std::size_t p, float around) {
+        out[p] = x[p] + relax[p] * (b[p] - (d[p] * x[p] - weight * around));
     });
 }
 
