@@ -371,40 +371,40 @@ namespace {
 
 /// A `set` event on an air grid's keys (engine/retune.h): its physics and its drawing, not its grid.
 Retune airRetune() {
-    return Retune{{"air"},
-                  [](const World& w, Entity e) { return w.has<Air>(e); },
-                  [](const World& bw, Entity b, const World& aw, Entity a) -> std::optional<std::string> {
-                      const Air &was = bw.get<Air>(b), &now = aw.get<Air>(a);
-                      if (was.cells != now.cells || was.cell != now.cell || was.border != now.border ||
-                          !(was.centre == now.centre)) {
-                          return std::string(
-                              "an air grid's cells, size, border and place cannot change during a run; "
-                              "its vorticity, buoyancy, dissipation, viscosity, advection, tolerance, "
-                              "coefficient and drawing keys can");
-                      }
-                      return std::nullopt;
-                  },
-                  [](World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
-                      Air& air = w.get<Air>(e);
-                      const Air &was = bw.get<Air>(b), &now = aw.get<Air>(a);
-                      takeChanged(air.vorticity, was.vorticity, now.vorticity);
-                      takeChanged(air.smokeWeight, was.smokeWeight, now.smokeWeight);
-                      takeChanged(air.heatLift, was.heatLift, now.heatLift);
-                      takeChanged(air.dissipation, was.dissipation, now.dissipation);
-                      takeChanged(air.viscosity, was.viscosity, now.viscosity);
-                      takeChanged(air.tolerance, was.tolerance, now.tolerance);
-                      takeChanged(air.coefficient, was.coefficient, now.coefficient);
-                      takeChanged(air.dumpFields, was.dumpFields, now.dumpFields);
-                      takeChanged(air.smokeColour, was.smokeColour, now.smokeColour);
-                      takeChanged(air.smokeOpacity, was.smokeOpacity, now.smokeOpacity);
-                      takeChanged(air.velocitySlice, was.velocitySlice, now.velocitySlice);
-                      if (was.maccormack != now.maccormack) {
-                          air.maccormack = now.maccormack; // its step back's vectors made, or freed
-                          const std::size_t faces = std::max({air.u.size(), air.v.size(), air.w.size()});
-                          air.scratch.back.assign(air.maccormack ? faces : 0, 0.0f);
-                          air.scratch.back2.assign(air.maccormack ? air.heat.size() : 0, 0.0f);
-                      }
-                  }};
+    return Retune{
+        {"air"},
+        [](const World& w, Entity e) { return w.has<Air>(e); },
+        [](const World& bw, Entity b, const World& aw, Entity a) -> std::optional<std::string> {
+            const Air &was = bw.get<Air>(b), &now = aw.get<Air>(a);
+            if (was.cells != now.cells || was.cell != now.cell || was.border != now.border ||
+                !(was.centre == now.centre)) {
+                return std::string("an air grid's cells, size, border and place cannot change during a run; "
+                                   "its vorticity, buoyancy, dissipation, viscosity, advection, tolerance, "
+                                   "coefficient and drawing keys can");
+            }
+            return std::nullopt;
+        },
+        [](World& w, Entity e, const World& bw, Entity b, const World& aw, Entity a) {
+            Air& air = w.get<Air>(e);
+            const Air &was = bw.get<Air>(b), &now = aw.get<Air>(a);
+            takeChanged(air.vorticity, was.vorticity, now.vorticity);
+            takeChanged(air.smokeWeight, was.smokeWeight, now.smokeWeight);
+            takeChanged(air.heatLift, was.heatLift, now.heatLift);
+            takeChanged(air.dissipation, was.dissipation, now.dissipation);
+            takeChanged(air.viscosity, was.viscosity, now.viscosity);
+            takeChanged(air.tolerance, was.tolerance, now.tolerance);
+            takeChanged(air.coefficient, was.coefficient, now.coefficient);
+            takeChanged(air.dumpFields, was.dumpFields, now.dumpFields);
+            takeChanged(air.smokeColour, was.smokeColour, now.smokeColour);
+            takeChanged(air.smokeOpacity, was.smokeOpacity, now.smokeOpacity);
+            takeChanged(air.velocitySlice, was.velocitySlice, now.velocitySlice);
+            if (was.maccormack != now.maccormack) {
+                air.maccormack = now.maccormack; // its step back's vectors made, or freed
+                const std::size_t faces = std::max({air.u.size(), air.v.size(), air.w.size()});
+                std::vector<float>(air.maccormack ? faces : 0, 0.0f).swap(air.scratch.back);
+                std::vector<float>(air.maccormack ? air.heat.size() : 0, 0.0f).swap(air.scratch.back2);
+            }
+        }};
 }
 
 /// A `set` event on a source's keys: everything but the air it feeds (its place is its transform's).

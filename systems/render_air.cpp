@@ -22,6 +22,7 @@ void SmokePass::make(const std::string& vertexSource, const std::string& fragmen
                at("uStep"),           at("uOpacity"),
                at("uColor"),          at("uSmoke"),
                at("uDepth")};
+    glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &largestTexture);
     glGenTextures(1, &texture);
     glBindTexture(GL_TEXTURE_3D, texture);
     glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -109,15 +110,28 @@ SmokeBounds smokeBounds(const Air& air) {
 }
 
 /// Draws one grid's smoke: its density uploaded, the box round it marched.
-void drawGridSmoke(const Air& air, const SmokePass& pass, const SmokeBounds& bounds,
-                   const SmokeFrame& frame) {
+void drawGridSmoke(const Air& air, SmokePass& pass, const SmokeBounds& bounds, const SmokeFrame& frame) {
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glTexImage3D(GL_TEXTURE_3D, 0, GL_R16F, air.cells[0], air.cells[1], air.cells[2], 0, GL_RED, GL_FLOAT,
-                 air.smoke.data());
+    if (pass.textureCells == air.cells) {
+        glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, air.cells[0], air.cells[1], air.cells[2], GL_RED, GL_FLOAT,
+                        air.smoke.data());
+    } else {
+        glTexImage3D(GL_TEXTURE_3D, 0, GL_R16F, air.cells[0], air.cells[1], air.cells[2], 0, GL_RED, GL_FLOAT,
+                     air.smoke.data());
+        pass.textureCells = air.cells;
+    }
     const Vec3 origin = air.origin();
-    // the smoke's cells and half a cell more each way, where trilinear sampling fades them out
-    const Vec3 lo = origin + Vec3{bounds.lo[0] - 0.5, bounds.lo[1] - 0.5, bounds.lo[2] - 0.5} * air.cell;
-    const Vec3 hi = origin + Vec3{bounds.hi[0] + 1.5, bounds.hi[1] + 1.5, bounds.hi[2] + 1.5} * air.cell;
+    // the smoke's cells and half a cell more each way, where trilinear sampling fades them out, but not
+    // past the grid's sides (there the texture's edge would hold the last cell's density)
+    auto within = [&](double cells, int side) {
+        return std::clamp(cells, 0.0, double(air.cells[std::size_t(side)]));
+    };
+    const Vec3 lo = origin + Vec3{within(bounds.lo[0] - 0.5, 0), within(bounds.lo[1] - 0.5, 1),
+                                  within(bounds.lo[2] - 0.5, 2)} *
+                                 air.cell;
+    const Vec3 hi = origin + Vec3{within(bounds.hi[0] + 1.5, 0), within(bounds.hi[1] + 1.5, 1),
+                                  within(bounds.hi[2] + 1.5, 2)} *
+                                 air.cell;
     glUniform3f(pass.uniform.boxMin, float(lo.x), float(lo.y), float(lo.z));
     glUniform3f(pass.uniform.boxSize, float(hi.x - lo.x), float(hi.y - lo.y), float(hi.z - lo.z));
     glUniform3f(pass.uniform.gridMin, float(origin.x), float(origin.y), float(origin.z));
@@ -135,7 +149,8 @@ void drawSmoke(World& world, SmokePass& pass, const SmokeFrame& frame) {
     std::vector<std::pair<const Air*, SmokeBounds>> drawn;
     world.view<const Air>().each([&](Entity, const Air& air) {
         const SmokeBounds b = smokeBounds(air);
-        if (!b.empty()) {
+        const bool fits = std::max({air.cells[0], air.cells[1], air.cells[2]}) <= pass.largestTexture;
+        if (!b.empty() && fits) { // a grid past the GL's 3D texture size is not drawn (README, "Air")
             drawn.emplace_back(&air, b);
         }
     });

@@ -29,6 +29,8 @@ struct SmokePass {
             depth = -1;
     } uniform;
     unsigned texture = 0;
+    std::array<int, 3> textureCells{}; ///< the texture's size as last made
+    int largestTexture = 0;            ///< the GL's largest 3D texture side
     unsigned depthFbo = 0, depthTexture = 0;
     int depthWidth = 0, depthHeight = 0;
 

@@ -287,7 +287,6 @@ std::vector<float> cylinderMesh(int slices = 32) {
     return out;
 }
 
-/// A vertex of a line (position, colour; size unused) or a particle instance (centre, colour, size).
 } // namespace
 
 /// Everything GL the renderer keeps between frames.

@@ -405,6 +405,20 @@ TEST(RenderSystem, SmokeAbsorbsAndGlowsAsTheSlabsClosedFormSays) {
     expectShade(inside.at(320, 240), slabShade(20.0 * 0.05 * 0.7), "from inside");
 }
 
+// Smoke that fills its grid ends at the grid's sides: along the middle row the box's silhouette (its near
+// face's edge, x = 1 m at 4 m from the eye) ends at pixel 464.9; a pixel 2 to the right of it is the
+// sky, one 15 to the left is smoke. Seen to fail with the marched box grown half a cell past the grid (the
+// texture's edge then repeats the last cells' density out to pixel 469.4).
+TEST(RenderSystem, SmokeEndsAtItsGridsSides) {
+    std::string scene = smokeScene("[0.0, 0.0, 5.0]", "[0.0, 0.0, 0.0]", 20.0);
+    const std::string sphere = "radius = 0.5\n";
+    scene.replace(scene.find(sphere), sphere.size(), "shape = \"box\"\nhalf_extents = [1.0, 1.0, 1.0]\n");
+    const Image img = renderAfter(scene, 6);
+    const std::uint8_t* outside = img.at(467, 240);
+    EXPECT_EQ(outside[0] + outside[1] + outside[2], 0) << "smoke past the grid's side";
+    EXPECT_GT(img.at(450, 240)[0], 40) << "smoke inside it";
+}
+
 // Opaque things and smoke: a white box in front of the smoke is drawn exactly as without smoke (the
 // march stops at the scene's depth), while one behind it shows through it, dimmed and tinted. Seen to
 // fail with the scene's depth ignored (smoke over the box in front).

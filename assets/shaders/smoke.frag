@@ -1,6 +1,6 @@
 #version 300 es
 // Smoke as a volume: the ray from the eye through this pixel, clipped to the smoke's box and to the opaque
-// scene in front (its depth, copied out before this pass), marched in steps of half a cell through the
+// scene in front (its depth, copied out before this pass), marched in steps of about a cell through the
 // smoke density (a 3D texture, trilinear). Emission and absorption: each step of length ds with
 // extinction sigma = opacity * density absorbs 1 - exp(-sigma ds) of what is behind it and adds that
 // share of the smoke's colour, darker the deeper into the smoke it lies (a cheap stand-in for the light
