@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <iterator>
+#include <type_traits>
 
 #include <emmintrin.h>
 
@@ -470,22 +471,43 @@ void around(int i, int n, int (&out)[2]) {
     }
 }
 
+/// Four floats, or ints, on an SSE2 register (the advection four points at a time, below).
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = std::int32_t __attribute__((vector_size(16)));
+
+inline Float4 load4(const float* p) {
+    Float4 v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/// One value of a field, or four along x (for the advection four points at a time).
+template <class T>
+T loadAs(const float* p) {
+    if constexpr (std::is_same_v<T, float>) {
+        return *p;
+    } else {
+        return load4(p);
+    }
+}
+
 /// Lattice c at a point of another lattice whose offsets differ by (DX, DY, DZ) half cells, at that
 /// lattice's index (i, j, k): the mean of the two values either side along each axis where the point is
-/// half way, which is what trilinear sampling there gives, without the search for the corner.
-template <int DX, int DY, int DZ, bool Clamp>
-float aligned(const Lattice& c, int i, int j, int k) {
+/// half way, which is what trilinear sampling there gives, without the search for the corner. With T =
+/// Float4 (and no clamping), at i .. i+3: the lattice's values along a row are contiguous.
+template <int DX, int DY, int DZ, bool Clamp, class T = float>
+T aligned(const Lattice& c, int i, int j, int k) {
     int is[2], js[2], ks[2];
     around<DX, Clamp>(i, c.nx, is);
     around<DY, Clamp>(j, c.ny, js);
     around<DZ, Clamp>(k, c.nz, ks);
     constexpr int cx = DX != 0 ? 2 : 1, cy = DY != 0 ? 2 : 1, cz = DZ != 0 ? 2 : 1;
-    float sum = 0.0f;
+    T sum{};
     for (int z = 0; z < cz; ++z) {
         for (int y = 0; y < cy; ++y) {
             for (int x = 0; x < cx; ++x) {
-                sum += c.f[std::size_t(is[x]) +
-                           std::size_t(c.nx) * (std::size_t(js[y]) + std::size_t(c.ny) * ks[z])];
+                sum += loadAs<T>(c.f + std::size_t(is[x]) +
+                                 std::size_t(c.nx) * (std::size_t(js[y]) + std::size_t(c.ny) * ks[z]));
             }
         }
     }
@@ -540,35 +562,6 @@ void velocityAtPoint(const Lattices& vel, const Lattice& from, int i, int j, int
 // (lane by lane, IEEE single precision, no contraction), so the same bits. GCC's vector extensions rather
 // than a library: nothing packaged offers gathers and per-lane selects on plain SSE2.
 
-using Float4 = float __attribute__((vector_size(16)));
-using Int4 = std::int32_t __attribute__((vector_size(16)));
-
-inline Float4 load4(const float* p) {
-    Float4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
-
-/// aligned<DX, DY, DZ, false> at (i..i+3, j, k): the lattice's values along a row are contiguous.
-template <int DX, int DY, int DZ>
-Float4 aligned4(const Lattice& c, int i, int j, int k) {
-    int is[2], js[2], ks[2];
-    around<DX, false>(i, c.nx, is);
-    around<DY, false>(j, c.ny, js);
-    around<DZ, false>(k, c.nz, ks);
-    constexpr int cx = DX != 0 ? 2 : 1, cy = DY != 0 ? 2 : 1, cz = DZ != 0 ? 2 : 1;
-    Float4 sum = {0.0f, 0.0f, 0.0f, 0.0f};
-    for (int z = 0; z < cz; ++z) {
-        for (int y = 0; y < cy; ++y) {
-            for (int x = 0; x < cx; ++x) {
-                sum += load4(c.f + std::size_t(is[x]) +
-                             std::size_t(c.nx) * (std::size_t(js[y]) + std::size_t(c.ny) * ks[z]));
-            }
-        }
-    }
-    return sum * (1.0f / float(cx * cy * cz));
-}
-
 /// velocityAt<L, false> at (i..i+3, j, k).
 template <int L>
 void velocityAt4(const Lattices& vel, int i, int j, int k, float scale, Float4& x, Float4& y, Float4& z) {
@@ -577,20 +570,20 @@ void velocityAt4(const Lattices& vel, int i, int j, int k, float scale, Float4& 
     };
     if constexpr (L == 0) {
         x = own(vel.u);
-        y = aligned4<-1, 1, 0>(vel.v, i, j, k);
-        z = aligned4<-1, 0, 1>(vel.w, i, j, k);
+        y = aligned<-1, 1, 0, false, Float4>(vel.v, i, j, k);
+        z = aligned<-1, 0, 1, false, Float4>(vel.w, i, j, k);
     } else if constexpr (L == 1) {
-        x = aligned4<1, -1, 0>(vel.u, i, j, k);
+        x = aligned<1, -1, 0, false, Float4>(vel.u, i, j, k);
         y = own(vel.v);
-        z = aligned4<0, -1, 1>(vel.w, i, j, k);
+        z = aligned<0, -1, 1, false, Float4>(vel.w, i, j, k);
     } else if constexpr (L == 2) {
-        x = aligned4<1, 0, -1>(vel.u, i, j, k);
-        y = aligned4<0, 1, -1>(vel.v, i, j, k);
+        x = aligned<1, 0, -1, false, Float4>(vel.u, i, j, k);
+        y = aligned<0, 1, -1, false, Float4>(vel.v, i, j, k);
         z = own(vel.w);
     } else {
-        x = aligned4<1, 0, 0>(vel.u, i, j, k);
-        y = aligned4<0, 1, 0>(vel.v, i, j, k);
-        z = aligned4<0, 0, 1>(vel.w, i, j, k);
+        x = aligned<1, 0, 0, false, Float4>(vel.u, i, j, k);
+        y = aligned<0, 1, 0, false, Float4>(vel.v, i, j, k);
+        z = aligned<0, 0, 1, false, Float4>(vel.w, i, j, k);
     }
     x *= scale;
     y *= scale;
