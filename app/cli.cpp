@@ -2,6 +2,7 @@
 
 #include "app/progress.h"
 #include "app/run_session.h"
+#include "app/sweep.h"
 #include "engine/replay.h"
 #include "engine/simulation.h"
 
@@ -394,6 +395,57 @@ void addViewVerb(CLI::App& app, RunOptions& o) {
         "(x1/4), W wireframe, I next integrator of the held (or first) spring network, Q or Esc quit.");
 }
 
+void addSweepVerb(CLI::App& app, SweepOptions& o) {
+    CLI::App* cmd = app.add_subcommand(
+        "sweep", "Run a parameter sweep (a sweep file: a scenario, axes over --set keys, metrics) on this "
+                 "machine or as a Slurm job array; results in OUT/results.csv");
+    cmd->add_option("file", o.file, "The sweep file (.toml; README \"Sweeps\")")
+        ->required()
+        ->type_name("FILE");
+    cmd->add_option("--out", o.out,
+                    "The sweep's folder (default out/<sweep file name>/); for --slurm, on "
+                    "storage every node sees");
+    cmd->add_flag("--local", o.local,
+                  "Run the cases here, -j at a time; a sweep started again skips the "
+                  "cases that ended");
+    cmd->add_option("-j,--jobs", o.jobs,
+                    "Cases at a time with --local or --shard (default: cores / threads "
+                    "per case)")
+        ->check(CLI::Range(1, 1024))
+        ->type_name("N");
+    cmd->add_flag("--slurm", o.slurm,
+                  "Submit the cases as a Slurm job array (sbatch), wait, run failed tasks "
+                  "once more, merge");
+    cmd->add_option("--partition", o.partition, "Slurm partition (default: the cluster's)")->type_name("P");
+    cmd->add_option("--max-parallel", o.maxParallel, "At most K array tasks at once (Slurm's %K)")
+        ->check(CLI::Range(1, 1000000))
+        ->type_name("K");
+    cmd->add_option("--tasks", o.tasks,
+                    "Array tasks (default: one per case, at most 1000); task i runs the "
+                    "cases whose index is i modulo N")
+        ->check(CLI::Range(1, 1000))
+        ->type_name("N");
+    cmd->add_flag("--no-wait", o.noWait, "With --slurm: submit and return (then --status, --merge)");
+    cmd->add_option("--shard", o.shard, "Run shard I of N here (what each Slurm task runs)")
+        ->type_name("I/N");
+    cmd->add_flag("--merge", o.merge, "Write OUT/results.csv from the cases that have ended");
+    cmd->add_flag("--status", o.status,
+                  "Say how many cases have ended, by status, and which tasks have "
+                  "cases left");
+    cmd->add_option("--plot", o.plot,
+                    "Write OUT/plot_METRIC_by_AXIS.svg: a metric (physics_p99_ms, a "
+                    "[[metric]]'s name, ...) against an axis")
+        ->type_name("METRIC");
+    cmd->add_option("--by", o.by, "The axis --plot draws along (default: the first)")->type_name("AXIS");
+    cmd->add_option("--threads", o.threads,
+                    "Threads each case's runs use (default: the file's threads); any "
+                    "number gives the same bits")
+        ->check(CLI::Range(1, kMaxThreads))
+        ->type_name("N");
+    cmd->add_flag("--quiet", o.quiet, "No progress, no summary, no line per failing case");
+    cmd->add_flag("--progress", o.progress, "Show the progress line even when stderr is not a terminal");
+}
+
 /// An unknown verb is named, rather than CLI11's "a subcommand is required".
 bool knownVerb(int argc, char** argv, CLI::App& app) {
     if (argc >= 2 && argv[1][0] != '-') {
@@ -401,7 +453,7 @@ bool knownVerb(int argc, char** argv, CLI::App& app) {
         const auto verbs = app.get_subcommands([](CLI::App*) { return true; });
         if (std::none_of(verbs.begin(), verbs.end(), [&](CLI::App* v) { return v->get_name() == verb; })) {
             std::cerr << "tumble: unknown verb '" << verb
-                      << "'; the verbs are list, check, run, replay, budget and view\n"
+                      << "'; the verbs are list, check, run, replay, budget, view and sweep\n"
                       << "Run `tumble --help` for usage.\n";
             return false;
         }
@@ -428,9 +480,13 @@ int commandView(const Catalog& catalog, const RunOptions& o, const ViewerFn& vie
 }
 
 /// Runs the parsed verb; bad input is exit 2, anything else that stops it exit 1, each said on stderr.
-int runVerb(const CLI::App& app, const Catalog& catalog, const RunOptions& o, const ViewerFn& viewer) {
+int runVerb(const CLI::App& app, const Catalog& catalog, const RunOptions& o, const SweepOptions& sweep,
+            const ViewerFn& viewer) {
     auto parsed = [&app](const char* verb) { return app.get_subcommand(verb)->parsed(); };
     try {
+        if (parsed("sweep")) {
+            return commandSweep(catalog, sweep);
+        }
         if (parsed("list")) {
             return commandList();
         }
@@ -530,6 +586,8 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
     addRunOptions(run, replay, o);
     addBudgetVerb(app, o);
     addViewVerb(app, o);
+    SweepOptions sweep;
+    addSweepVerb(app, sweep);
     if (!knownVerb(argc, argv, app)) {
         return kExitBadInput;
     }
@@ -544,7 +602,7 @@ int runCli(int argc, char** argv, const Catalog& catalog, const ViewerFn& viewer
         std::cerr << "Run `tumble --help` or `tumble VERB --help` for usage.\n";
         return kExitBadInput;
     }
-    return runVerb(app, catalog, o, viewer);
+    return runVerb(app, catalog, o, sweep, viewer);
 }
 
 } // namespace tumble

@@ -628,7 +628,9 @@ std::vector<EventDef> readEvents(const toml::table& root, const LoadContext& ctx
     return events;
 }
 
-toml::table parseText(const std::string& path, const std::string& text) {
+} // namespace
+
+toml::table parseToml(const std::string& path, const std::string& text) {
     try {
         return toml::parse(text, path);
     } catch (const toml::parse_error& err) {
@@ -637,8 +639,6 @@ toml::table parseText(const std::string& path, const std::string& text) {
                             "TOML syntax error: " + std::string(err.description()));
     }
 }
-
-} // namespace
 
 std::string readScenarioFile(const std::string& path) {
     struct stat st {};
@@ -693,7 +693,7 @@ Scenario load(const Catalog& catalog, const std::string& path, std::string text,
                             "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
                                 " MiB");
     }
-    toml::table root = parseText(path, sc.text);
+    toml::table root = parseToml(path, sc.text);
     for (const std::string& o : overrides) {
         applyOverride(root, o, "--set", ctx);
     }
@@ -771,7 +771,7 @@ Scenario loadScenarioWithSets(const Catalog& catalog, const std::string& path, s
 SceneDef peekScene(const std::string& path, const std::string& text) {
     LoadContext ctx;
     ctx.file = path;
-    toml::table root = parseText(path, text);
+    toml::table root = parseToml(path, text);
     SceneDef scene;
     const toml::table* s = root["scene"].as_table();
     if (!s) {

@@ -33,6 +33,10 @@ struct Scenario {
 /// Reads a scenario file. Throws ScenarioError (file named, no line) when it cannot be read.
 std::string readScenarioFile(const std::string& path);
 
+/// Parses TOML text; a syntax error is a ScenarioError at its line and column (other files in TOML, such
+/// as sweep files, are read with it too).
+toml::table parseToml(const std::string& path, const std::string& text);
+
 /// Parses, applies overrides, validates, and creates the scenario's entities in the world.
 /// Throws ScenarioError for the first problem. The world is left partly filled on error.
 /// `memoryCap` bounds the memory the scene's components may ask for (LoadContext::charge).

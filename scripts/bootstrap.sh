@@ -21,6 +21,7 @@ packages=(
     libegl-dev libgles-dev libegl-mesa0 ffmpeg
     clang libclang-rt-14-dev clang-format clang-tidy
     libglfw3-dev libimgui-dev xvfb xdotool imagemagick
+    slurm-wlm munge
 )
 
 install_missing() {

@@ -1,5 +1,6 @@
 #include "tests/test_support.h"
 
+#include "app/subprocess.h"
 #include "systems/builtin.h"
 
 #include <algorithm>
@@ -12,22 +13,6 @@
 #include <unistd.h>
 
 namespace tumble::test {
-
-namespace {
-
-std::string shellQuote(const std::string& s) {
-    std::string q = "'";
-    for (char c : s) {
-        if (c == '\'') {
-            q += "'\\''";
-        } else {
-            q += c;
-        }
-    }
-    return q + "'";
-}
-
-} // namespace
 
 std::string tempPath(const std::string& name) {
     // one folder per test process, so parallel ctest runs do not collide

@@ -1,0 +1,210 @@
+// The `sweep` verb (app/sweep.h): one mode per call, the sweep file read and checked before any case runs.
+
+#include "app/cli.h"
+#include "app/sweep.h"
+#include "engine/table_reader.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <thread>
+#include <unistd.h>
+
+namespace tumble {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string manifestPath(const std::string& out) {
+    return out + "/sweep.json";
+}
+
+/// OUT/sweep.json ties the folder to one sweep: results of a sweep whose cases have since changed would
+/// be merged into the wrong rows. Returns false when there is none (nothing has run yet).
+bool checkManifest(const Sweep& s, const std::string& out) {
+    std::ifstream in(manifestPath(out));
+    if (!in) {
+        return false;
+    }
+    const json m = json::parse(in, nullptr, false);
+    const std::string want = hash16(sweepFingerprint(s));
+    if (m.is_discarded() || m.value("fingerprint", "") != want) {
+        throw ScenarioError(s.path, 0, 0,
+                            out +
+                                " holds the results of another sweep (its scenario, frames, repeats, axes or "
+                                "metrics differ from this file's): give another --out, or delete " +
+                                out + " to start again");
+    }
+    return true;
+}
+
+void writeManifest(const Sweep& s, const std::string& out) {
+    if (checkManifest(s, out)) {
+        return;
+    }
+    fs::create_directories(out + "/cases");
+    const json m = {{"fingerprint", hash16(sweepFingerprint(s))},
+                    {"sweep", s.file},
+                    {"scenario", s.scenarioPath},
+                    {"cases", s.caseCount()}};
+    writeSweepFile(manifestPath(out), m.dump(1) + "\n");
+}
+
+std::pair<std::size_t, std::size_t> parseShard(const std::string& text) {
+    unsigned long long i = 0, n = 0;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%llu/%llu%c", &i, &n, &tail) != 2 || n == 0 || i >= n) {
+        throw ScenarioError("--shard", 0, 0,
+                            "'" + text + "' is not a shard: I/N with 0 <= I < N (task I of N, from 0)");
+    }
+    return {std::size_t(i), std::size_t(n)};
+}
+
+int defaultJobs(const Sweep& s) {
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    return std::max(1, cores / s.threads);
+}
+
+/// "22 ok, 2 blow_up, 1 not run" over the given cases.
+std::string statusCounts(const Sweep& s, const std::string& out, const std::vector<std::size_t>& cases) {
+    std::map<std::string, std::size_t> counts;
+    for (std::size_t c : cases) {
+        const auto r = readCaseResult(out, c, s.metrics.size());
+        ++counts[r ? r->status : "not run"];
+    }
+    std::string text;
+    for (const auto& [status, n] : counts) {
+        text += (text.empty() ? "" : ", ") + std::to_string(n) + " " + status;
+    }
+    return text;
+}
+
+int sweepStatus(const Sweep& s, const std::string& out) {
+    const bool started = checkManifest(s, out);
+    std::vector<std::size_t> left;
+    for (std::size_t c = 0; c < s.caseCount(); ++c) {
+        if (!readCaseResult(out, c, s.metrics.size())) {
+            left.push_back(c);
+        }
+    }
+    std::printf("sweep %s (%s): %zu cases: %s\n", s.name.c_str(), out.c_str(), s.caseCount(),
+                statusCounts(s, out, shardCases(s.caseCount(), 0, 1)).c_str());
+    if (!started) {
+        std::printf("nothing has run yet: start it with --local or --slurm\n");
+    }
+    std::ifstream tasksFile(out + "/slurm/tasks");
+    std::size_t tasks = 0;
+    if (tasksFile >> tasks && tasks > 0 && !left.empty()) {
+        std::vector<std::size_t> shards;
+        for (std::size_t c : left) {
+            if (std::find(shards.begin(), shards.end(), c % tasks) == shards.end()) {
+                shards.push_back(c % tasks);
+            }
+        }
+        std::sort(shards.begin(), shards.end());
+        std::string list;
+        for (std::size_t t : shards) {
+            list += (list.empty() ? "" : ", ") + std::to_string(t);
+        }
+        std::printf("Slurm array of %zu tasks: tasks with cases left: %s\n", tasks, list.c_str());
+    }
+    return kExitOk;
+}
+
+int sweepMerge(const Sweep& s, const std::string& out) {
+    checkManifest(s, out);
+    fs::create_directories(out);
+    const std::size_t missing = mergeResults(s, out);
+    std::printf("%s/results.csv: %zu of %zu cases\n", out.c_str(), s.caseCount() - missing, s.caseCount());
+    if (missing) {
+        std::fprintf(stderr, "tumble sweep: %zu cases have not run (--status says which tasks hold them)\n",
+                     missing);
+        return kExitFailure;
+    }
+    return kExitOk;
+}
+
+/// --local (every case) or --shard I/N (its share), on this machine.
+int sweepHere(const Sweep& s, const std::string& out, const SweepOptions& o) {
+    std::vector<std::size_t> cases;
+    if (o.shard.empty()) {
+        cases = shardCases(s.caseCount(), 0, 1);
+    } else {
+        const auto [i, n] = parseShard(o.shard);
+        cases = shardCases(s.caseCount(), i, n);
+    }
+    const int jobs = o.jobs > 0 ? o.jobs : defaultJobs(s);
+    const ProgressStyle style{!o.quiet && (o.progress || ::isatty(2) != 0), o.quiet};
+    const CaseTally t = runCases(s, out, cases, jobs, style);
+    std::size_t missing = 0;
+    if (o.shard.empty()) {
+        missing = mergeResults(s, out);
+    }
+    if (!o.quiet) {
+        std::printf("sweep %s%s: %zu cases: %s (%zu run now, %zu from before) in %.1f s\n", s.name.c_str(),
+                    o.shard.empty() ? "" : (" shard " + o.shard).c_str(), cases.size(),
+                    statusCounts(s, out, cases).c_str(), t.ran, t.skipped, t.wallSeconds);
+        if (jobs == 1 && t.ran > 0 && !t.interrupted) {
+            std::printf("the sweep's own time beyond its runs: %.1f ms a case\n",
+                        1e3 * (t.wallSeconds - t.runSeconds) / double(t.ran));
+        }
+        if (o.shard.empty()) {
+            std::printf("results: %s/results.csv\n", out.c_str());
+        }
+    }
+    if (t.interrupted) {
+        std::fprintf(stderr, "tumble sweep: interrupted; the cases that ended are kept: run the same command "
+                             "again to run the rest\n");
+        return kExitInterrupted;
+    }
+    return missing ? kExitFailure : kExitOk;
+}
+
+} // namespace
+
+int commandSweep(const Catalog& catalog, const SweepOptions& o) {
+    const int modes = int(o.local) + int(o.slurm) + int(!o.shard.empty()) + int(o.merge) + int(o.status) +
+                      int(!o.plot.empty());
+    if (modes != 1) {
+        throw ScenarioError(
+            "tumble sweep", 0, 0,
+            std::string(modes ? "give only one of" : "say how to run the sweep:") +
+                " --local (on this machine), --slurm (as a Slurm job array), --shard I/N (one "
+                "task's share), --merge, --status or --plot METRIC");
+    }
+    if (!o.by.empty() && o.plot.empty()) {
+        throw ScenarioError("tumble sweep", 0, 0, "--by AXIS goes with --plot METRIC");
+    }
+    Sweep s = readSweep(o.file);
+    if (o.threads) {
+        s.threads = *o.threads;
+    }
+    const std::string out = fs::absolute(o.out.empty() ? "out/" + s.name : o.out).lexically_normal().string();
+    if (o.status) {
+        return sweepStatus(s, out);
+    }
+    if (o.merge) {
+        return sweepMerge(s, out);
+    }
+    // before any case runs: every axis's values as --set takes them, every metric's entity
+    const double budgetMs = checkSweep(catalog, s);
+    if (!o.plot.empty()) {
+        checkManifest(s, out);
+        const std::string svg = plotSweep(s, out, o.plot, o.by, budgetMs);
+        std::printf("%s\n", svg.c_str());
+        return kExitOk;
+    }
+    writeManifest(s, out);
+    if (o.slurm) {
+        return sweepSlurm(s, out, o);
+    }
+    return sweepHere(s, out, o);
+}
+
+} // namespace tumble
