@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#include <poll.h>
 #include <stdexcept>
 #include <sys/prctl.h>
 #include <sys/stat.h>
@@ -42,7 +43,7 @@ pid_t spawnLogged(const std::vector<std::string>& argv, const std::string& logPa
         if (::getppid() != parent) {
             ::_exit(127);
         }
-        const int null = ::open("/dev/null", O_RDONLY);
+        const int null = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
         if (null < 0 || ::dup2(null, 0) < 0 || ::dup2(log, 1) < 0 || ::dup2(log, 2) < 0) {
             ::_exit(127);
         }
@@ -58,41 +59,69 @@ pid_t spawnLogged(const std::vector<std::string>& argv, const std::string& logPa
     return pid;
 }
 
+namespace {
+
+/// Reads the two pipes to their ends, whichever has data (one left full would stall the child).
+void drain(int outFd, int errFd, Captured& c) {
+    pollfd fds[2] = {{outFd, POLLIN, 0}, {errFd, POLLIN, 0}};
+    std::string* into[2] = {&c.out, &c.err};
+    int open = 2;
+    char buffer[4096];
+    while (open > 0) {
+        if (::poll(fds, 2, -1) < 0) {
+            if (errno == EINTR) {
+                continue;
+            }
+            break;
+        }
+        for (int i = 0; i < 2; ++i) {
+            if (fds[i].fd < 0 || !(fds[i].revents & (POLLIN | POLLHUP | POLLERR))) {
+                continue;
+            }
+            const ssize_t n = ::read(fds[i].fd, buffer, sizeof buffer);
+            if (n > 0) {
+                into[i]->append(buffer, std::size_t(n));
+            } else if (n == 0 || errno != EINTR) {
+                fds[i].fd = -1;
+                --open;
+            }
+        }
+    }
+}
+
+} // namespace
+
 Captured runCaptured(const std::vector<std::string>& argv) {
-    int pipeFds[2];
-    if (::pipe2(pipeFds, O_CLOEXEC) != 0) {
+    int outPipe[2], errPipe[2];
+    if (::pipe2(outPipe, O_CLOEXEC) != 0 || ::pipe2(errPipe, O_CLOEXEC) != 0) {
         throw std::runtime_error(std::string("cannot make a pipe: ") + std::strerror(errno));
     }
     std::vector<char*> args = argvOf(argv);
     const pid_t pid = ::fork();
     if (pid == 0) {
-        const int null = ::open("/dev/null", O_RDONLY);
-        if (null < 0 || ::dup2(null, 0) < 0 || ::dup2(pipeFds[1], 1) < 0 || ::dup2(pipeFds[1], 2) < 0) {
+        const int null = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+        if (null < 0 || ::dup2(null, 0) < 0 || ::dup2(outPipe[1], 1) < 0 || ::dup2(errPipe[1], 2) < 0) {
             ::_exit(127);
         }
         ::execvp(args[0], args.data());
         ::_exit(127);
     }
-    ::close(pipeFds[1]);
+    ::close(outPipe[1]);
+    ::close(errPipe[1]);
+    Captured c;
+    if (pid > 0) {
+        drain(outPipe[0], errPipe[0], c);
+    }
+    ::close(outPipe[0]);
+    ::close(errPipe[0]);
     if (pid < 0) {
-        ::close(pipeFds[0]);
         throw std::runtime_error(std::string("cannot start a process: ") + std::strerror(errno));
     }
-    Captured c;
-    char buffer[4096];
-    for (;;) {
-        const ssize_t n = ::read(pipeFds[0], buffer, sizeof buffer);
-        if (n > 0) {
-            c.output.append(buffer, std::size_t(n));
-        } else if (n == 0 || errno != EINTR) {
-            break;
-        }
-    }
-    ::close(pipeFds[0]);
     int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    pid_t waited = 0;
+    while ((waited = ::waitpid(pid, &status, 0)) < 0 && errno == EINTR) {
     }
-    c.exitCode = exitCodeOf(status);
+    c.exitCode = waited == pid ? exitCodeOf(status) : 127;
     return c;
 }
 

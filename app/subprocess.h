@@ -15,11 +15,12 @@ pid_t spawnLogged(const std::vector<std::string>& argv, const std::string& logPa
 
 /// What a finished command printed, and how it ended.
 struct Captured {
-    int exitCode = 0;   ///< exit status, or 128 + N for signal N, or 127 when it could not start
-    std::string output; ///< stdout and stderr together
+    int exitCode = 0; ///< exit status, or 128 + N for signal N, or 127 when it could not start
+    std::string out;  ///< its stdout
+    std::string err;  ///< its stderr
 };
 
-/// Runs argv[0] (looked up on PATH) to its end and captures its output.
+/// Runs argv[0] (looked up on PATH) to its end and captures its stdout and stderr apart.
 Captured runCaptured(const std::vector<std::string>& argv);
 
 /// The exit code of a waitpid status: the exit status, or 128 + N for a death by signal N.

@@ -25,6 +25,7 @@ struct SweepAxis {
     std::vector<std::string> values;  ///< as --set reads them: TOML text ("400", "\"rk4\"", "true")
     std::vector<std::string> display; ///< as the table shows them (strings unquoted)
     bool logScale = false;            ///< from log_range: plots use a log axis
+    bool generated = false;           ///< from range, log_range or random (not listed one by one)
     int line = 0;                     ///< where the axis is in the sweep file (0: unknown)
     int column = 0;
 };
@@ -126,6 +127,11 @@ std::vector<std::size_t> shardCases(std::size_t caseCount, std::size_t shard, st
 void writeCaseResult(const std::string& out, std::size_t c, const CaseResult& result);
 /// Each metric's value in the last line of a dump ("" for one it lacks).
 std::vector<std::string> readMetrics(const std::string& dumpPath, const std::vector<SweepMetric>& metrics);
+/// Why a metric cannot be read from a dump line, or "" (particles' indices are not checked: they come and
+/// go).
+std::string metricProblem(const std::string& dumpLine, const SweepMetric& metric);
+/// Each metric's value in a dump line ("" for one it lacks).
+std::vector<std::string> metricValues(const std::string& dumpLine, const std::vector<SweepMetric>& metrics);
 /// results.csv's columns, and one case's cells.
 std::vector<std::string> resultColumns(const Sweep& sweep);
 std::vector<std::string> resultRow(const Sweep& sweep, std::size_t c, const CaseResult& result);
@@ -133,6 +139,9 @@ std::vector<std::string> resultRow(const Sweep& sweep, std::size_t c, const Case
 void writeSweepFile(const std::string& path, const std::string& text);
 /// A hash as results.csv shows it: 16 hex digits.
 std::string hash16(std::uint64_t h);
+/// The command of run `repeat` of case `c` by the program `exe`, its outputs in `folder`.
+std::vector<std::string> caseRunCommand(const Sweep& sweep, const std::string& exe, const std::string& folder,
+                                        std::size_t c, int repeat);
 /// This program's own path (each case runs it again).
 std::string selfExecutable();
 
@@ -156,6 +165,8 @@ struct CaseTally {
 CaseTally runCases(const Sweep& sweep, const std::string& out, const std::vector<std::size_t>& cases,
                    int jobs, const ProgressStyle& style);
 
+/// Throws ScenarioError (exit 2) naming what is missing when Slurm's client is not on the PATH.
+void requireSlurm();
 /// --slurm: the array script written (OUT/slurm/sweep.sbatch), submitted, waited for (unless --no-wait), its
 /// unfinished tasks submitted once more, the table merged. Returns the exit code.
 int sweepSlurm(const Sweep& sweep, const std::string& out, const SweepOptions& options);

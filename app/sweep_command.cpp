@@ -7,10 +7,16 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cerrno>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sched.h>
+#include <sys/file.h>
 #include <thread>
 #include <unistd.h>
 
@@ -25,8 +31,20 @@ std::string manifestPath(const std::string& out) {
     return out + "/sweep.json";
 }
 
+/// True when some case of the folder has a result.
+bool anyResult(const std::string& out) {
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(out + "/cases", ec)) {
+        if (fs::exists(entry.path() / "result.json", ec)) {
+            return true;
+        }
+    }
+    return false;
+}
+
 /// OUT/sweep.json ties the folder to one sweep: results of a sweep whose cases have since changed would
-/// be merged into the wrong rows. Returns false when there is none (nothing has run yet).
+/// be merged into the wrong rows. Returns false when there is none (nothing has run yet), or when it is
+/// another sweep's but no case of that one has a result (nothing would be lost: it is replaced).
 bool checkManifest(const Sweep& s, const std::string& out) {
     std::ifstream in(manifestPath(out));
     if (!in) {
@@ -34,7 +52,10 @@ bool checkManifest(const Sweep& s, const std::string& out) {
     }
     const json m = json::parse(in, nullptr, false);
     const std::string want = hash16(sweepFingerprint(s));
-    if (m.is_discarded() || m.value("fingerprint", "") != want) {
+    if (m.is_discarded() || !m.is_object() || m.value("fingerprint", "") != want) {
+        if (!anyResult(out)) {
+            return false;
+        }
         throw ScenarioError(s.path, 0, 0,
                             out +
                                 " holds the results of another sweep (its scenario, frames, repeats, axes or "
@@ -53,8 +74,44 @@ void writeManifest(const Sweep& s, const std::string& out) {
                     {"sweep", s.file},
                     {"scenario", s.scenarioPath},
                     {"cases", s.caseCount()}};
+    // shards started side by side may all find none: each writes it whole; any of them is the same file
     writeSweepFile(manifestPath(out), m.dump(1) + "\n");
+    checkManifest(s, out);
 }
+
+/// A lock on OUT: --local holds it alone, shards share it, so that a sweep started twice in one folder
+/// (a second --local, --local beside a Slurm array) is refused rather than two runs of a case meeting
+/// in its folder. A file system without locks (some shared ones) goes unlocked, saying so.
+class FolderLock {
+public:
+    FolderLock(const Sweep& s, const std::string& out, bool shared) {
+        fs::create_directories(out);
+        m_fd = ::open((out + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (m_fd < 0 || ::flock(m_fd, (shared ? LOCK_SH : LOCK_EX) | LOCK_NB) == 0) {
+            return;
+        }
+        if (errno == EWOULDBLOCK) {
+            throw ScenarioError(s.path, 0, 0,
+                                "another sweep is running in " + out +
+                                    (shared ? " (a --local sweep)" : " (a --local sweep or Slurm tasks)") +
+                                    ": wait for it, or give another --out");
+        }
+        std::fprintf(stderr,
+                     "tumble sweep: note: %s cannot be locked here (%s); nothing stops a second sweep in "
+                     "it\n",
+                     out.c_str(), std::strerror(errno));
+    }
+    ~FolderLock() {
+        if (m_fd >= 0) {
+            ::close(m_fd);
+        }
+    }
+    FolderLock(const FolderLock&) = delete;
+    FolderLock& operator=(const FolderLock&) = delete;
+
+private:
+    int m_fd = -1;
+};
 
 std::pair<std::size_t, std::size_t> parseShard(const std::string& text) {
     unsigned long long i = 0, n = 0;
@@ -67,7 +124,12 @@ std::pair<std::size_t, std::size_t> parseShard(const std::string& text) {
 }
 
 int defaultJobs(const Sweep& s) {
-    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    // the cores this process may use (a cgroup or taskset may give it fewer than the machine has)
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    const int cores = ::sched_getaffinity(0, sizeof set, &set) == 0
+                          ? std::max(1, CPU_COUNT(&set))
+                          : int(std::max(1u, std::thread::hardware_concurrency()));
     return std::max(1, cores / s.threads);
 }
 
@@ -166,9 +228,8 @@ int sweepHere(const Sweep& s, const std::string& out, const SweepOptions& o) {
     return missing ? kExitFailure : kExitOk;
 }
 
-} // namespace
-
-int commandSweep(const Catalog& catalog, const SweepOptions& o) {
+/// One mode, and no option of another mode's (it would be silently ignored).
+void checkModes(const SweepOptions& o) {
     const int modes = int(o.local) + int(o.slurm) + int(!o.shard.empty()) + int(o.merge) + int(o.status) +
                       int(!o.plot.empty());
     if (modes != 1) {
@@ -178,9 +239,23 @@ int commandSweep(const Catalog& catalog, const SweepOptions& o) {
                 " --local (on this machine), --slurm (as a Slurm job array), --shard I/N (one "
                 "task's share), --merge, --status or --plot METRIC");
     }
-    if (!o.by.empty() && o.plot.empty()) {
-        throw ScenarioError("tumble sweep", 0, 0, "--by AXIS goes with --plot METRIC");
-    }
+    auto refuse = [](bool given, const char* option, const char* mode) {
+        if (given) {
+            throw ScenarioError("tumble sweep", 0, 0, std::string(option) + " goes with " + mode);
+        }
+    };
+    refuse(!o.by.empty() && o.plot.empty(), "--by AXIS", "--plot METRIC");
+    refuse(!o.slurm && (!o.partition.empty() || o.maxParallel > 0 || o.tasks > 0 || o.noWait),
+           "--partition, --max-parallel, --tasks and --no-wait", "--slurm");
+    refuse(o.jobs > 0 && !o.local && o.shard.empty(), "-j", "--local or --shard");
+}
+
+} // namespace
+
+int commandSweep(const Catalog& catalog, const SweepOptions& o) {
+    checkModes(o);
+    // runs are waited for by their own pids; a SIGCHLD ignored by whoever started us would reap them first
+    std::signal(SIGCHLD, SIG_DFL);
     Sweep s = readSweep(o.file);
     if (o.threads) {
         s.threads = *o.threads;
@@ -192,18 +267,23 @@ int commandSweep(const Catalog& catalog, const SweepOptions& o) {
     if (o.merge) {
         return sweepMerge(s, out);
     }
-    // before any case runs: every axis's values as --set takes them, every metric's entity
-    const double budgetMs = checkSweep(catalog, s);
+    // before any case runs: every axis's values as --set takes them, every metric; a shard of a sweep whose
+    // folder is made was checked by whoever made it
+    const bool checked = !o.shard.empty() && checkManifest(s, out);
+    const double budgetMs = checked ? 0.0 : checkSweep(catalog, s);
     if (!o.plot.empty()) {
         checkManifest(s, out);
         const std::string svg = plotSweep(s, out, o.plot, o.by, budgetMs);
         std::printf("%s\n", svg.c_str());
         return kExitOk;
     }
-    writeManifest(s, out);
     if (o.slurm) {
+        requireSlurm();
+        writeManifest(s, out);
         return sweepSlurm(s, out, o);
     }
+    const FolderLock lock(s, out, !o.shard.empty());
+    writeManifest(s, out);
     return sweepHere(s, out, o);
 }
 

@@ -2,9 +2,11 @@
 
 #include "app/cli.h"
 #include "app/sweep.h"
+#include "engine/dump.h"
 #include "engine/hash.h"
 #include "engine/json.h"
 #include "engine/name.h"
+#include "engine/parallel.h"
 #include "engine/random.h"
 #include "engine/scenario.h"
 
@@ -71,6 +73,7 @@ void readRange(TableReader& r, std::string_view key, SweepAxis& axis, bool log, 
         ends[i] = n.value_or(0.0);
     }
     const std::int64_t n = **a->get(2)->as_integer();
+    axis.generated = true;
     if (n < 1 || n > std::int64_t(kMaxCases)) {
         r.fail(key, "the count must be from 1 to " + std::to_string(kMaxCases));
     }
@@ -98,10 +101,18 @@ void readRandom(TableReader& r, SweepAxis& axis, std::uint64_t seed, bool intege
         rr.fail("count", "random needs a count");
     }
     rr.finish();
+    // whole numbers: each of those from min to max as likely
+    const double first = std::ceil(lo), last = std::floor(hi);
+    if (integer && first > last) {
+        rr.fail("min", "no whole number lies from min to max");
+    }
+    axis.generated = true;
     Rng rng(streamSeed(seed, "sweep axis:" + axis.key));
     for (std::int64_t i = 0; i < n; ++i) {
         const double u = rng.uniform();
-        addNumber(axis, integer ? std::floor(lo + u * (hi - lo + 1.0)) : lo + u * (hi - lo), integer);
+        addNumber(axis,
+                  integer ? std::min(last, std::floor(first + u * (last - first + 1.0))) : lo + u * (hi - lo),
+                  integer);
     }
 }
 
@@ -126,6 +137,10 @@ SweepAxis readAxis(const toml::table& t, std::size_t i, std::uint64_t seed, cons
     if (const toml::array* a = r.array("values", kMaxCases)) {
         if (a->empty()) {
             r.fail("values", "values is empty");
+        }
+        if (integer) {
+            r.fail("integer",
+                   "integer = true rounds a range's or random's values: listed values are as written");
         }
         for (const toml::node& v : *a) {
             addValue(axis, v);
@@ -159,14 +174,15 @@ SweepMetric readMetric(const toml::table& t, std::size_t i, const LoadContext& c
     return m;
 }
 
-/// The scenario: a file beside the sweep file, else a demo by name.
+/// The scenario: a path (it has a '/' or ends in .toml) relative to the sweep file, else a demo's name.
 std::string findScenario(const std::string& sweepFile, const std::string& given) {
-    const fs::path beside = fs::path(sweepFile).parent_path() / given;
-    std::error_code ec;
-    if (fs::is_regular_file(beside, ec)) {
-        return fs::absolute(beside).lexically_normal().string();
+    const bool looksLikePath = given.find('/') != std::string::npos || fs::path(given).extension() == ".toml";
+    if (!looksLikePath) {
+        return fs::absolute(resolveScenario(given)).lexically_normal().string();
     }
-    return fs::absolute(resolveScenario(given)).lexically_normal().string();
+    const fs::path path =
+        fs::path(given).is_absolute() ? fs::path(given) : fs::path(sweepFile).parent_path() / given;
+    return fs::absolute(path).lexically_normal().string();
 }
 
 void readSweepTable(const toml::table& root, const LoadContext& ctx, Sweep& s) {
@@ -183,7 +199,7 @@ void readSweepTable(const toml::table& root, const LoadContext& ctx, Sweep& s) {
         r.fail("scenario", e.what());
     }
     s.frames = r.integer("frames", 0, 0, 1'000'000'000);
-    s.threads = int(r.integer("threads", 1, 1, 1024));
+    s.threads = int(r.integer("threads", 1, 1, kMaxThreads));
     s.repeats = int(r.integer("repeats", 1, 1, 1000));
     s.zip = r.choice("combine", "grid", {"grid", "zip"}) == "zip";
     s.seed = std::uint64_t(r.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
@@ -225,8 +241,10 @@ void checkCaseCount(const Sweep& s) {
         product *= double(a.values.size());
     }
     if (product > double(kMaxCases)) {
+        char count[32];
+        std::snprintf(count, sizeof count, "%.3g", product);
         throw ScenarioError(s.path, s.axes.back().line, s.axes.back().column,
-                            "the axes make " + numberText(product, true) + " cases; at most " +
+                            std::string("the axes make ") + count + " cases; at most " +
                                 std::to_string(kMaxCases));
     }
 }
@@ -322,7 +340,7 @@ std::vector<std::size_t> valuesToCheck(const SweepAxis& a) {
             at.push_back(i);
         }
     }
-    if (at.size() > 16) {
+    if (a.generated && at.size() > 16) {
         // a long generated axis: its least and greatest value stand for it (a range's ends)
         auto [lo, hi] = std::minmax_element(a.values.begin(), a.values.end(), [](auto& x, auto& y) {
             return std::strtod(x.c_str(), nullptr) < std::strtod(y.c_str(), nullptr);
@@ -333,6 +351,26 @@ std::vector<std::size_t> valuesToCheck(const SweepAxis& a) {
 }
 
 } // namespace
+
+/// Each metric read from the scenario's first state as it will be from each case's last: one that finds
+/// no entity, no such field, index or component is refused now rather than an empty column later.
+void checkMetrics(const Catalog& catalog, const Sweep& s, World& world) {
+    std::set<std::string> names;
+    world.view<const Name>().each([&](Entity, const Name& n) { names.insert(n.value); });
+    std::string line;
+    appendDumpLine(line, world, catalog, 0, 0.0, 0);
+    for (const SweepMetric& m : s.metrics) {
+        if (!names.count(m.entity)) {
+            const std::string near = nearestName(m.entity, {names.begin(), names.end()});
+            throw ScenarioError(s.path, m.line, m.column,
+                                "metric '" + m.name + "': the scenario has no entity '" + m.entity + "'" +
+                                    (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        }
+        if (const std::string problem = metricProblem(line, m); !problem.empty()) {
+            throw ScenarioError(s.path, m.line, m.column, "metric '" + m.name + "': " + problem);
+        }
+    }
+}
 
 double checkSweep(const Catalog& catalog, const Sweep& s) {
     World base;
@@ -351,16 +389,7 @@ double checkSweep(const Catalog& catalog, const Sweep& s) {
             }
         }
     }
-    std::set<std::string> names;
-    base.view<const Name>().each([&](Entity, const Name& n) { names.insert(n.value); });
-    for (const SweepMetric& m : s.metrics) {
-        if (!names.count(m.entity)) {
-            const std::string near = nearestName(m.entity, {names.begin(), names.end()});
-            throw ScenarioError(s.path, m.line, m.column,
-                                "metric '" + m.name + "': the scenario has no entity '" + m.entity + "'" +
-                                    (near.empty() ? "" : " (did you mean '" + near + "'?)"));
-        }
-    }
+    checkMetrics(catalog, s, base);
     return scenario.scene.physicsBudgetMs;
 }
 

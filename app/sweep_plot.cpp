@@ -19,6 +19,7 @@ struct PlotPoint {
     double x = 0.0;
     double y = 0.0;
     bool ok = true;
+    bool finite = true; ///< a NaN or infinite value (a blow-up's) is drawn as a cross on the top edge
 };
 
 /// The points of each series (the other axes' values), in case order.
@@ -65,15 +66,21 @@ Series collectPoints(const Sweep& s, const std::string& out, std::size_t column,
         const std::vector<std::string> row = resultRow(s, c, *r);
         PlotPoint p;
         if (!parseNumber(row[column], p.y)) {
-            continue;
+            const std::string& cell = row[column];
+            if (cell != "NaN" && cell != "Infinity" && cell != "-Infinity") {
+                continue;
+            }
+            p.finite = false;
+            p.y = 0.0;
         }
         const std::vector<std::size_t> at = s.caseValueIndices(c);
         if (!numeric || !parseNumber(s.axes[axis].display[at[axis]], p.x)) {
             p.x = double(at[axis]);
         }
         p.ok = r->status == "ok";
+        // zipped axes move together: one line through every case
         std::string key;
-        for (std::size_t i = 0; i < s.axes.size(); ++i) {
+        for (std::size_t i = 0; i < s.axes.size() && !s.zip; ++i) {
             if (i != axis) {
                 key += (key.empty() ? "" : ", ") + s.axes[i].key + " = " + s.axes[i].display[at[i]];
             }
@@ -104,9 +111,14 @@ PlotFrame frameFor(const Series& series, bool logX, double budget) {
         for (const PlotPoint& p : points) {
             f.x0 = std::min(f.x0, p.x);
             f.x1 = std::max(f.x1, p.x);
-            f.y0 = std::min(f.y0, p.y);
-            f.y1 = std::max(f.y1, p.y);
+            if (p.finite) {
+                f.y0 = std::min(f.y0, p.y);
+                f.y1 = std::max(f.y1, p.y);
+            }
         }
+    }
+    if (f.y0 > f.y1) {
+        f.y0 = f.y1 = 0.0;
     }
     f.logX = logX && f.x0 > 0.0;
     if (budget > 0.0) {
@@ -193,14 +205,17 @@ void drawSeries(std::string& svg, const PlotFrame& f, const Series& series) {
                          [](const PlotPoint& a, const PlotPoint& b) { return a.x < b.x; });
         std::string path;
         for (const PlotPoint& p : sorted) {
-            path += (path.empty() ? "M" : " L") + number(f.px(p.x)) + " " + number(f.py(p.y));
+            if (p.finite) {
+                path += (path.empty() ? "M" : " L") + number(f.px(p.x)) + " " + number(f.py(p.y));
+            }
         }
         svg += "<path d='" + path + "' fill='none' stroke='" + colour + "' stroke-width='1.5'/>\n";
         for (const PlotPoint& p : sorted) {
-            const std::string x = number(f.px(p.x)), y = number(f.py(p.y));
-            svg += p.ok ? "<circle cx='" + x + "' cy='" + y + "' r='3' fill='" + colour + "'/>\n"
-                        : "<text x='" + x + "' y='" + number(f.py(p.y) + 5) +
-                              "' text-anchor='middle' fill='#d62728' font-weight='bold'>x</text>\n";
+            const std::string x = number(f.px(p.x)), y = number(p.finite ? f.py(p.y) : f.top);
+            svg += p.ok && p.finite
+                       ? "<circle cx='" + x + "' cy='" + y + "' r='3' fill='" + colour + "'/>\n"
+                       : "<text x='" + x + "' y='" + number((p.finite ? f.py(p.y) : f.top) + 5) +
+                             "' text-anchor='middle' fill='#d62728' font-weight='bold'>x</text>\n";
         }
         if (!key.empty() && k < 12) {
             svg += "<text x='" + number(f.right + 10) + "' y='" + number(f.top + 14 + 16 * double(k)) +
@@ -217,9 +232,14 @@ std::string plotSweep(const Sweep& s, const std::string& out, const std::string&
     if (s.axes.empty()) {
         throw ScenarioError(s.path, 0, 0, "the sweep has no axis to plot against");
     }
-    std::vector<std::string> metrics = {"physics_p50_ms", "physics_p99_ms", "physics_max_ms", "exit_code"};
-    for (const SweepMetric& m : s.metrics) {
-        metrics.push_back(m.name);
+    // every column of numbers: results.csv's less the case, the axes, the status, the hash and the detail
+    std::vector<std::string> metrics;
+    for (const std::string& c : resultColumns(s)) {
+        const bool isAxis =
+            std::any_of(s.axes.begin(), s.axes.end(), [&](const SweepAxis& a) { return a.key == c; });
+        if (!isAxis && c != "case" && c != "status" && c != "hash" && c != "detail") {
+            metrics.push_back(c);
+        }
     }
     findColumn(metrics, metric, "metric", "--plot");
     std::vector<std::string> axisKeys;

@@ -2,9 +2,12 @@
 // results.csv merged from them.
 
 #include "app/sweep.h"
+#include "engine/dump.h"
+#include "engine/json.h"
 
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -13,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
+#include <unistd.h>
 
 namespace tumble {
 
@@ -39,21 +43,12 @@ std::string readWhole(const std::string& path) {
     return s.str();
 }
 
-/// The text of a number as the table shows it: the shortest that reads back, NaN as "nan".
+/// The text of a number as the table shows it: the shortest that reads back, non-finite ones as the dump
+/// spells them (NaN, Infinity, -Infinity).
 std::string numberCell(double v) {
-    if (!std::isfinite(v)) {
-        return std::isnan(v) ? "nan" : (v > 0 ? "inf" : "-inf");
-    }
-    char text[32];
-    std::snprintf(text, sizeof text, "%.17g", v);
-    for (int digits = 1; digits <= 17; ++digits) {
-        char shorter[32];
-        std::snprintf(shorter, sizeof shorter, "%.*g", digits, v);
-        if (std::strtod(shorter, nullptr) == v) {
-            return shorter;
-        }
-    }
-    return text;
+    std::string s;
+    appendNumber(s, v);
+    return s;
 }
 
 std::string csvCell(const std::string& s) {
@@ -67,20 +62,26 @@ std::string csvCell(const std::string& s) {
     return out + "\"";
 }
 
-/// Writes a file whole or not at all: a reader (a resumed sweep, --merge, --status) never sees half.
+/// Writes a file whole or not at all: a reader (a resumed sweep, --merge, --status) never sees half, and
+/// two writers (two shards, a merge beside a merge) each write a temporary of their own.
 void writeAtomically(const std::string& path, const std::string& text) {
-    const std::string temporary = path + ".partial";
+    static std::atomic<unsigned> serial{0};
+    const std::string temporary =
+        path + ".partial." + std::to_string(::getpid()) + "." + std::to_string(serial.fetch_add(1));
     {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
         out << text;
         out.close();
         if (!out) {
+            std::error_code ec;
+            fs::remove(temporary, ec);
             throw std::runtime_error("cannot write " + temporary);
         }
     }
     std::error_code ec;
     fs::rename(temporary, path, ec);
     if (ec) {
+        fs::remove(temporary, ec);
         throw std::runtime_error("cannot write " + path + ": " + ec.message());
     }
 }
@@ -126,10 +127,60 @@ std::string metricValue(const json& entity, const SweepMetric& m) {
 
 } // namespace
 
-std::vector<std::string> readMetrics(const std::string& dumpPath, const std::vector<SweepMetric>& metrics) {
+std::vector<std::string> metricValues(const std::string& dumpLine, const std::vector<SweepMetric>& metrics) {
     std::vector<std::string> out(metrics.size());
-    if (metrics.empty()) {
+    const json dump = json::parse(quoteNonFinite(dumpLine), nullptr, false);
+    if (dump.is_discarded() || !dump.contains("entities") || !dump["entities"].is_object()) {
         return out;
+    }
+    for (std::size_t i = 0; i < metrics.size(); ++i) {
+        const auto e = dump["entities"].find(metrics[i].entity);
+        if (e != dump["entities"].end() && e->is_object()) {
+            out[i] = metricValue(*e, metrics[i]);
+        }
+    }
+    return out;
+}
+
+std::string metricProblem(const std::string& dumpLine, const SweepMetric& m) {
+    const json dump = json::parse(quoteNonFinite(dumpLine), nullptr, false);
+    if (dump.is_discarded() || !dump.contains("entities") || !dump["entities"].contains(m.entity)) {
+        return "no entity '" + m.entity + "' in the dump";
+    }
+    const json& e = dump["entities"][m.entity];
+    const std::string kind = e.value("kind", std::string("?"));
+    const std::string what = "entity '" + m.entity + "' (" + kind + ")";
+    if (m.field == "count" || !e.contains(m.field) || !e[m.field].is_array()) {
+        return m.field == "count" && e.contains("count")
+                   ? ""
+                   : what + " has no " + m.field +
+                         " (x, v: a mass, node, particle or body; count: particles; h: water)";
+    }
+    std::size_t rows = e[m.field].size(), width = 0;
+    if (m.field == "h") {
+        rows = 0;
+        for (const json& row : e["h"]) {
+            rows += row.size();
+        }
+        width = 1;
+    } else if (rows > 0) {
+        width = e[m.field][0].size();
+    }
+    // particles come and go: their index can only be checked as the run ends
+    if (rows > 0 && kind != "particles" && m.index >= std::int64_t(rows)) {
+        return what + " has " + std::to_string(rows) + " " + m.field + " values: index " +
+               std::to_string(m.index) + " is past them";
+    }
+    if (rows > 0 && std::size_t(m.component) >= width) {
+        return what + "'s " + m.field + " has " + std::to_string(width) + " components: component " +
+               std::to_string(m.component) + " is past them";
+    }
+    return "";
+}
+
+std::vector<std::string> readMetrics(const std::string& dumpPath, const std::vector<SweepMetric>& metrics) {
+    if (metrics.empty()) {
+        return {};
     }
     std::ifstream in(dumpPath);
     std::string line, last;
@@ -138,33 +189,7 @@ std::vector<std::string> readMetrics(const std::string& dumpPath, const std::vec
             last = std::move(line);
         }
     }
-    // the dump spells non-finite numbers NaN / Infinity, which JSON does not: quoted, they parse
-    for (const char* word : {"-Infinity", "Infinity", "NaN"}) {
-        for (std::size_t at = 0; (at = last.find(word, at)) != std::string::npos;) {
-            // a bare word is a value: it follows '[', ',' or ':' (spaces aside), never a letter or a quote
-            std::size_t before = at;
-            while (before > 0 && last[before - 1] == ' ') {
-                --before;
-            }
-            if (before == 0 || std::string_view("[,:").find(last[before - 1]) == std::string_view::npos) {
-                at += std::strlen(word);
-                continue;
-            }
-            last.replace(at, std::strlen(word), std::string("\"") + word + "\"");
-            at += std::strlen(word) + 2;
-        }
-    }
-    const json dump = json::parse(last, nullptr, false);
-    if (dump.is_discarded() || !dump.contains("entities")) {
-        return out;
-    }
-    for (std::size_t i = 0; i < metrics.size(); ++i) {
-        const auto e = dump["entities"].find(metrics[i].entity);
-        if (e != dump["entities"].end()) {
-            out[i] = metricValue(*e, metrics[i]);
-        }
-    }
-    return out;
+    return metricValues(last, metrics);
 }
 
 std::string caseFolder(const std::string& out, std::size_t c) {
@@ -183,7 +208,9 @@ void writeCaseResult(const std::string& out, std::size_t c, const CaseResult& r)
               {"metrics", r.metrics},
               {"detail", r.detail},
               {"wall_s", r.wallSeconds}};
-    writeAtomically(caseFolder(out, c) + "/result.json", j.dump() + "\n");
+    // a message cut mid-character is not UTF-8: replaced, not thrown over
+    writeAtomically(caseFolder(out, c) + "/result.json",
+                    j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n");
 }
 
 std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, std::size_t metricCount) {
@@ -192,28 +219,26 @@ std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, 
     if (!fs::is_regular_file(path, ec)) {
         return std::nullopt;
     }
-    const json j = json::parse(readWhole(path), nullptr, false);
-    // a result that does not read (a disk that filled) is no result: the case runs again
-    if (j.is_discarded() || !j.is_object() || !j.contains("status") || !j.contains("metrics") ||
-        !j["metrics"].is_array() || j["metrics"].size() != metricCount) {
-        return std::nullopt;
-    }
-    CaseResult r;
-    r.status = j.value("status", "error");
-    r.exitCode = j.value("exit_code", 0);
-    r.p50 = optionalNumber(j.value("physics_p50_ms", json()));
-    r.p99 = optionalNumber(j.value("physics_p99_ms", json()));
-    r.max = optionalNumber(j.value("physics_max_ms", json()));
-    r.hash = j.value("hash", "");
-    for (const json& m : j["metrics"]) {
-        if (!m.is_string()) {
+    // a result that does not read (a disk that filled, a hand edit) is no result: the case runs again
+    try {
+        const json j = json::parse(readWhole(path));
+        CaseResult r;
+        r.status = j.at("status").get<std::string>();
+        r.exitCode = j.at("exit_code").get<int>();
+        r.p50 = optionalNumber(j.at("physics_p50_ms"));
+        r.p99 = optionalNumber(j.at("physics_p99_ms"));
+        r.max = optionalNumber(j.at("physics_max_ms"));
+        r.hash = j.at("hash").get<std::string>();
+        r.metrics = j.at("metrics").get<std::vector<std::string>>();
+        r.detail = j.at("detail").get<std::string>();
+        r.wallSeconds = j.at("wall_s").get<double>();
+        if (r.metrics.size() != metricCount) {
             return std::nullopt;
         }
-        r.metrics.push_back(m.get<std::string>());
+        return r;
+    } catch (const json::exception&) {
+        return std::nullopt;
     }
-    r.detail = j.value("detail", "");
-    r.wallSeconds = j.value("wall_s", 0.0);
-    return r;
 }
 
 std::vector<std::size_t> shardCases(std::size_t caseCount, std::size_t shard, std::size_t shards) {

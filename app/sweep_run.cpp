@@ -5,6 +5,7 @@
 
 #include "app/progress.h"
 #include "app/subprocess.h"
+#include "engine/dump.h"
 #include "engine/replay.h"
 #include "engine/table_reader.h"
 
@@ -63,36 +64,9 @@ std::string repeatSuffix(int repeat) {
     return repeat == 0 ? "" : "_" + std::to_string(repeat);
 }
 
-std::vector<std::string> runCommand(const Sweep& s, const std::string& folder, std::size_t c, int repeat) {
-    const std::string suffix = repeatSuffix(repeat);
-    std::vector<std::string> argv = {selfExecutable(),
-                                     "run",
-                                     s.scenarioPath,
-                                     "--no-render",
-                                     "--quiet",
-                                     "--threads",
-                                     std::to_string(s.threads),
-                                     "--out",
-                                     folder,
-                                     "--profile",
-                                     folder + "/profile" + suffix + ".json",
-                                     "--record",
-                                     folder + "/run" + suffix + ".tumble"};
-    if (s.frames > 0) {
-        argv.insert(argv.end(), {"--frames", std::to_string(s.frames)});
-    }
-    if (repeat == 0 && !s.metrics.empty()) {
-        argv.insert(argv.end(), {"--dump", folder + "/state.jsonl"});
-    }
-    for (const std::string& set : s.caseSets(c)) {
-        argv.insert(argv.end(), {"--set", set});
-    }
-    return argv;
-}
-
 void startRun(const Sweep& s, const std::string& out, CaseRun& run) {
     const std::string folder = caseFolder(out, run.c);
-    const std::vector<std::string> argv = runCommand(s, folder, run.c, run.repeat);
+    const std::vector<std::string> argv = caseRunCommand(s, selfExecutable(), folder, run.c, run.repeat);
     if (run.repeat == 0) {
         // whatever an interrupted attempt left is not this attempt's
         std::error_code ec;
@@ -131,7 +105,12 @@ void readLog(const std::string& path, RunOutcome& o) {
         }
     }
     if (o.detail.size() > 400) {
-        o.detail = o.detail.substr(0, 400) + "...";
+        // cut before a UTF-8 continuation byte, never inside a character
+        std::size_t cut = 400;
+        while (cut > 0 && (static_cast<unsigned char>(o.detail[cut]) & 0xC0) == 0x80) {
+            --cut;
+        }
+        o.detail = o.detail.substr(0, cut) + "...";
     }
 }
 
@@ -311,6 +290,13 @@ void runEnded(const Sweep& s, const std::string& out, std::vector<CaseRun>& runn
     CaseRun& run = running[at];
     run.done.push_back(collectRun(out, run, status));
     const RunOutcome& o = run.done.back();
+    // a run ended by the signal that is stopping the sweep (Ctrl-C reaches the whole process group, Slurm's
+    // SIGTERM the task) did not fail: its case keeps no result and runs again
+    const bool stopped = !o.timedOut && (o.exitCode == 130 || o.exitCode == 128 + SIGTERM);
+    if (g_interrupted || stopped) {
+        running.erase(running.begin() + std::ptrdiff_t(at));
+        return;
+    }
     if (o.exitCode == 0 && !o.timedOut && run.repeat + 1 < s.repeats) {
         ++run.repeat;
         startRun(s, out, run);
@@ -327,15 +313,14 @@ void runEnded(const Sweep& s, const std::string& out, std::vector<CaseRun>& runn
 /// Reaps every run that has ended; kills those past the timeout. False when none had ended.
 bool reap(const Sweep& s, const std::string& out, std::vector<CaseRun>& running, SweepProgress& progress,
           CaseTally& tally) {
-    int status = 0;
-    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
-    if (pid > 0) {
-        const auto it =
-            std::find_if(running.begin(), running.end(), [&](const CaseRun& r) { return r.pid == pid; });
-        if (it != running.end()) {
-            runEnded(s, out, running, std::size_t(it - running.begin()), status, progress, tally);
+    // each run by its own pid: a wait for any child would also take children that are not runs
+    for (std::size_t i = 0; i < running.size(); ++i) {
+        int status = 0;
+        const pid_t pid = ::waitpid(running[i].pid, &status, WNOHANG);
+        if (pid == running[i].pid || (pid < 0 && errno == ECHILD)) {
+            runEnded(s, out, running, i, pid > 0 ? status : (1 << 8), progress, tally);
+            return true;
         }
-        return true;
     }
     for (CaseRun& r : running) {
         const double age = std::chrono::duration<double>(SteadyClock::now() - r.start).count();
@@ -347,25 +332,58 @@ bool reap(const Sweep& s, const std::string& out, std::vector<CaseRun>& running,
     return false;
 }
 
-/// An interrupted sweep: its runs stopped and waited for; their cases keep no result and run next time.
+/// An interrupted sweep: its runs asked to stop (a run stops between frames), killed after 5 s if one
+/// has not (a hung frame), and waited for; their cases keep no result and run next time.
 void stopRuns(std::vector<CaseRun>& running) {
     for (const CaseRun& r : running) {
         ::kill(r.pid, SIGTERM);
     }
-    for (const CaseRun& r : running) {
+    const auto deadline = SteadyClock::now() + std::chrono::seconds(5);
+    while (!running.empty()) {
         int status = 0;
-        while (::waitpid(r.pid, &status, 0) < 0 && errno == EINTR) {
+        const pid_t pid = ::waitpid(running.back().pid, &status, WNOHANG);
+        if (pid == running.back().pid || (pid < 0 && errno != EINTR)) {
+            running.pop_back();
+        } else if (SteadyClock::now() > deadline) {
+            ::kill(running.back().pid, SIGKILL);
+        } else {
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
     }
-    running.clear();
 }
 
 } // namespace
 
+std::vector<std::string> caseRunCommand(const Sweep& s, const std::string& exe, const std::string& folder,
+                                        std::size_t c, int repeat) {
+    const std::string suffix = repeatSuffix(repeat);
+    std::vector<std::string> argv = {exe,
+                                     "run",
+                                     s.scenarioPath,
+                                     "--no-render",
+                                     "--quiet",
+                                     "--threads",
+                                     std::to_string(s.threads),
+                                     "--out",
+                                     folder,
+                                     "--profile",
+                                     folder + "/profile" + suffix + ".json",
+                                     "--record",
+                                     folder + "/run" + suffix + ".tumble"};
+    if (s.frames > 0) {
+        argv.insert(argv.end(), {"--frames", std::to_string(s.frames)});
+    }
+    if (repeat == 0 && !s.metrics.empty()) {
+        argv.insert(argv.end(), {"--dump", folder + "/state.jsonl"});
+    }
+    for (const std::string& set : s.caseSets(c)) {
+        argv.insert(argv.end(), {"--set", set});
+    }
+    return argv;
+}
+
 std::string hash16(std::uint64_t h) {
-    char text[20];
-    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h));
-    return text;
+    return hashHex(h).substr(2);
 }
 
 std::string selfExecutable() {
@@ -396,7 +414,14 @@ CaseTally runCases(const Sweep& s, const std::string& out, const std::vector<std
         while (!g_interrupted && running.size() < std::size_t(jobs) && next < todo.size()) {
             running.emplace_back();
             running.back().c = todo[next++];
-            startRun(s, out, running.back());
+            try {
+                startRun(s, out, running.back());
+            } catch (const std::exception&) {
+                // no process, no folder, a full disk: the sweep cannot go on; the runs under way stop first
+                running.pop_back();
+                stopRuns(running);
+                throw;
+            }
         }
         if (g_interrupted) {
             stopRuns(running);

@@ -32,44 +32,69 @@ void onStopWaiting(int) {
     g_stopWaiting = 1;
 }
 
-std::string slurmScript(const Sweep& s, const std::string& out, const SweepOptions& o, std::size_t tasks) {
-    std::string text = "#!/bin/sh\n";
-    text += "# written by `tumble sweep --slurm`: task i of this array runs shard i of " +
-            std::to_string(tasks) + " (the cases whose index is i modulo " + std::to_string(tasks) + ")\n";
-    text += "#SBATCH --job-name=tumble-" + s.name + "\n";
-    text += "#SBATCH --array=0-" + std::to_string(tasks - 1) +
-            (o.maxParallel > 0 ? "%" + std::to_string(o.maxParallel) : "") + "\n";
-    text += "#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=" + std::to_string(s.threads) + "\n";
-    text += "#SBATCH --output=" + out + "/slurm/task_%A_%a.log\n";
-    if (!o.partition.empty()) {
-        text += "#SBATCH --partition=" + o.partition + "\n";
-    }
-    text += "exec " + shellQuote(selfExecutable()) + " sweep " + shellQuote(s.file) + " --out " +
-            shellQuote(out) + " --shard \"${SLURM_ARRAY_TASK_ID}/" + std::to_string(tasks) +
-            "\" -j 1 --threads " + std::to_string(s.threads) + " --quiet\n";
-    return text;
+/// The array task's script: only the command. Everything Slurm reads is given on sbatch's command line
+/// (submitCommand), where a path with spaces or quotes stays one argument.
+std::string slurmScript(const Sweep& s, const std::string& out, std::size_t tasks) {
+    return "#!/bin/sh\n# written by `tumble sweep --slurm` (sbatch's options are on its command line: " +
+           out + "/slurm/submit.txt): task i of the array runs shard i of " + std::to_string(tasks) +
+           ", the cases whose index is i modulo " + std::to_string(tasks) + "\nexec " +
+           shellQuote(selfExecutable()) + " sweep " + shellQuote(s.file) + " --out " + shellQuote(out) +
+           " --shard \"${SLURM_ARRAY_TASK_ID}/" + std::to_string(tasks) + "\" -j 1 --threads " +
+           std::to_string(s.threads) + " --quiet\n";
 }
 
-/// Submits the script (for the given task indices, or all of its own); returns the job id.
-std::string submit(const std::string& script, const std::string& indices, int maxParallel) {
-    std::vector<std::string> argv = {"sbatch", "--parsable"};
-    if (!indices.empty()) {
-        argv.push_back("--array=" + indices + (maxParallel > 0 ? "%" + std::to_string(maxParallel) : ""));
+/// sbatch's arguments for the array (or the listed tasks of it).
+std::vector<std::string> submitCommand(const Sweep& s, const std::string& out, const SweepOptions& o,
+                                       const std::string& indices) {
+    // Slurm expands %-patterns in --output: a % of the folder's own is doubled
+    std::string folder;
+    for (char c : out) {
+        folder += c == '%' ? std::string("%%") : std::string(1, c);
     }
-    argv.push_back(script);
+    std::vector<std::string> argv = {"sbatch",
+                                     "--parsable",
+                                     "--job-name=tumble-" + s.name,
+                                     "--array=" + indices +
+                                         (o.maxParallel > 0 ? "%" + std::to_string(o.maxParallel) : ""),
+                                     "--ntasks=1",
+                                     "--cpus-per-task=" + std::to_string(s.threads),
+                                     "--output=" + folder + "/slurm/task_%A_%a.log"};
+    if (!o.partition.empty()) {
+        argv.push_back("--partition=" + o.partition);
+    }
+    argv.push_back(out + "/slurm/sweep.sbatch");
+    return argv;
+}
+
+/// Submits; returns the job id (sbatch --parsable prints "ID" or "ID;CLUSTER" as a line of its stdout,
+/// whatever a site's plugins print besides).
+std::string submit(const std::vector<std::string>& argv) {
     const Captured c = runCaptured(argv);
-    const std::string id = c.output.substr(0, c.output.find_first_of(";\n"));
-    if (c.exitCode != 0 || id.empty() || id.find_first_not_of("0123456789") != std::string::npos) {
-        throw std::runtime_error("sbatch refused the sweep's array (exit " + std::to_string(c.exitCode) +
-                                 "): " + c.output);
+    std::string id;
+    std::size_t start = 0;
+    while (start < c.out.size()) {
+        const std::size_t end = std::min(c.out.find('\n', start), c.out.size());
+        const std::string line = c.out.substr(start, end - start);
+        const std::string first = line.substr(0, line.find(';'));
+        if (!first.empty() && first.find_first_not_of("0123456789") == std::string::npos) {
+            id = first;
+        }
+        start = end + 1;
+    }
+    if (c.exitCode != 0 || id.empty()) {
+        throw std::runtime_error("sbatch did not take the sweep's array (exit " + std::to_string(c.exitCode) +
+                                 "): " + c.err + c.out);
     }
     return id;
 }
 
+/// Cases with a result file, by its presence alone (the progress line of a sweep of a million cases on a
+/// shared file system polls this every second).
 std::size_t casesDone(const Sweep& s, const std::string& out) {
     std::size_t done = 0;
+    std::error_code ec;
     for (std::size_t c = 0; c < s.caseCount(); ++c) {
-        done += readCaseResult(out, c, s.metrics.size()) ? 1 : 0;
+        done += fs::exists(caseFolder(out, c) + "/result.json", ec) ? 1 : 0;
     }
     return done;
 }
@@ -83,18 +108,19 @@ bool waitForJob(const Sweep& s, const std::string& out, const std::string& job, 
     sa.sa_handler = onStopWaiting;
     sigemptyset(&sa.sa_mask);
     ::sigaction(SIGINT, &sa, &old);
-    int failures = 0;
+    auto lastAnswer = std::chrono::steady_clock::now();
     bool finished = false;
     while (!g_stopWaiting && !finished) {
         const Captured q = runCaptured({"squeue", "-h", "-j", job, "-o", "%i"});
         if (q.exitCode == 0) {
-            finished = q.output.find_first_not_of(" \n") == std::string::npos;
-            failures = 0;
-        } else if (q.output.find("nvalid job id") != std::string::npos) {
+            finished = q.out.find_first_not_of(" \n") == std::string::npos;
+            lastAnswer = std::chrono::steady_clock::now();
+        } else if (q.err.find("nvalid job id") != std::string::npos) {
             finished = true;
-        } else if (++failures > 60) {
+        } else if (std::chrono::steady_clock::now() - lastAnswer > std::chrono::minutes(5)) {
             ::sigaction(SIGINT, &old, nullptr);
-            throw std::runtime_error("squeue has failed for a minute: " + q.output);
+            throw std::runtime_error("squeue has failed for 5 minutes (job " + job +
+                                     " may still run): " + q.err);
         }
         if (bar) {
             std::fprintf(stderr, "\r\033[Ksweep %s: job %s: %zu/%zu cases done", s.name.c_str(), job.c_str(),
@@ -133,7 +159,7 @@ void noteJob(const std::string& out, const std::string& job, std::size_t tasks) 
 
 } // namespace
 
-int sweepSlurm(const Sweep& s, const std::string& out, const SweepOptions& o) {
+void requireSlurm() {
     for (const char* program : {"sbatch", "squeue"}) {
         if (findOnPath(program).empty()) {
             throw ScenarioError("tumble sweep --slurm", 0, 0,
@@ -142,12 +168,21 @@ int sweepSlurm(const Sweep& s, const std::string& out, const SweepOptions& o) {
                                     "slurm-client and point SLURM_CONF at the cluster, or run with --local)");
         }
     }
+}
+
+int sweepSlurm(const Sweep& s, const std::string& out, const SweepOptions& o) {
     const std::size_t tasks = std::min<std::size_t>(o.tasks > 0 ? std::size_t(o.tasks) : kMaxTasks,
                                                     std::min(s.caseCount(), kMaxTasks));
     fs::create_directories(out + "/slurm");
     const std::string script = out + "/slurm/sweep.sbatch";
-    writeSweepFile(script, slurmScript(s, out, o, tasks));
-    const std::string job = submit(script, "", 0);
+    writeSweepFile(script, slurmScript(s, out, tasks));
+    const std::vector<std::string> command = submitCommand(s, out, o, "0-" + std::to_string(tasks - 1));
+    std::string text;
+    for (const std::string& a : command) {
+        text += (text.empty() ? "" : " ") + shellQuote(a);
+    }
+    writeSweepFile(out + "/slurm/submit.txt", text + "\n");
+    const std::string job = submit(command);
     noteJob(out, job, tasks);
     std::printf("sweep %s: submitted job %s, an array of %zu tasks over %zu cases (%s)\n", s.name.c_str(),
                 job.c_str(), tasks, s.caseCount(), script.c_str());
@@ -166,7 +201,7 @@ int sweepSlurm(const Sweep& s, const std::string& out, const SweepOptions& o) {
     }
     // a task that failed (a node lost, a time limit) runs once more: its shard skips the cases it finished
     if (const std::string again = unfinishedTasks(s, out, tasks); !again.empty()) {
-        const std::string retry = submit(script, again, o.maxParallel);
+        const std::string retry = submit(submitCommand(s, out, o, again));
         std::printf("sweep %s: tasks %s left cases undone; submitted them again as job %s\n", s.name.c_str(),
                     again.c_str(), retry.c_str());
         noteJob(out, retry, tasks);

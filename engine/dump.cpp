@@ -3,6 +3,7 @@
 #include "engine/name.h"
 
 #include <cstdio>
+#include <string_view>
 
 namespace tumble {
 
@@ -53,6 +54,25 @@ std::string hashHex(std::uint64_t h) {
     char buf[20];
     std::snprintf(buf, sizeof buf, "0x%016llx", static_cast<unsigned long long>(h));
     return buf;
+}
+
+std::string quoteNonFinite(std::string line) {
+    for (const std::string_view word : {"-Infinity", "Infinity", "NaN"}) {
+        for (std::size_t at = 0; (at = line.find(word, at)) != std::string::npos;) {
+            // a bare word is a value: it follows '[', ',' or ':' (spaces aside), never a letter, a quote or
+            // the minus of a -Infinity already quoted
+            std::size_t before = at;
+            while (before > 0 && line[before - 1] == ' ') {
+                --before;
+            }
+            if (before > 0 && std::string_view("[,:").find(line[before - 1]) != std::string_view::npos) {
+                line.replace(at, word.size(), "\"" + std::string(word) + "\"");
+                at += 2;
+            }
+            at += word.size();
+        }
+    }
+    return line;
 }
 
 } // namespace tumble

@@ -24,4 +24,8 @@ std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e);
 /// "0x" followed by 16 hex digits.
 std::string hashHex(std::uint64_t h);
 
+/// A dump line made strict JSON: the bare words NaN, Infinity and -Infinity it writes for non-finite
+/// numbers (which JSON has no spelling for) quoted, so that a JSON parser reads them as strings.
+std::string quoteNonFinite(std::string line);
+
 } // namespace tumble

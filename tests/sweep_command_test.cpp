@@ -163,6 +163,20 @@ TEST(SweepPlan, RandomAxesFollowTheSeedAndStayInRange) {
     EXPECT_NEAR(sum / 200.0, 0.5, 0.041);
 }
 
+TEST(SweepPlan, StringValuesAreSetQuotedAndShownBare) {
+    const Sweep s =
+        readSweep(writeTemp("strings.toml", ropeSweep("[[axis]]\nkey = \"chain.rope.integrator\"\n"
+                                                      "values = [\"rk4\", \"implicit_euler\"]\n"
+                                                      "[[axis]]\nkey = \"chain.rope.segments\"\n"
+                                                      "random = { min = 0.5, max = 2.5, count = 40 }\n"
+                                                      "integer = true\n")));
+    EXPECT_EQ(s.caseSets(0)[0], "chain.rope.integrator='rk4'"); // a TOML literal string, as --set reads it
+    EXPECT_EQ(s.axes[0].display, (std::vector<std::string>{"rk4", "implicit_euler"}));
+    // whole numbers within [0.5, 2.5]: 1 and 2, both drawn
+    EXPECT_EQ(std::set<std::string>(s.axes[1].values.begin(), s.axes[1].values.end()),
+              (std::set<std::string>{"1", "2"}));
+}
+
 TEST(SweepPlan, ShardsCoverEveryCaseExactlyOnce) {
     for (std::size_t cases : {1u, 2u, 3u, 24u, 100u, 1001u}) {
         for (std::size_t shards : {1u, 2u, 3u, 4u, 7u}) {
@@ -199,8 +213,15 @@ TEST(SweepPlan, BadInputIsLocatedWithADidYouMean) {
         {"[sweep]\nscenario = \"no_such_demo\"\n", "no scenario file or demo", 2},
         {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"hash\"\nentity = \"chain\"\n", "name is taken",
          3},
-        {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"y\"\n", "x",
-         6},
+        {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"y\"\n",
+         "one of", 6},
+        {"[sweep]\nscenario = \"rope\"\nthreads = 512\n", "outside", 3},
+        {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"chain.rope.segments\"\ninteger = true\n"
+         "random = { min = 0.2, max = 0.8, count = 3 }\n",
+         "no whole number", 6},
+        {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"chain.rope.segments\"\ninteger = true\nvalues = "
+         "[1]\n",
+         "listed values are as written", 5},
     };
     for (const Case& c : cases) {
         try {
@@ -225,6 +246,15 @@ TEST(SweepPlan, AxisKeysAndMetricsTheScenarioRefusesStopTheSweepBeforeAnyCase) {
         {"[[axis]]\nkey = \"chain.rope.stiffness\"\nvalues = [100.0]\n[[metric]]\nname = \"m\"\nentity = "
          "\"chian\"\n",
          "did you mean 'chain'", 8},
+        // a typo in the middle of a long list is found too, not only at its ends
+        {"[[axis]]\nkey = \"chain.rope.integrator\"\nvalues = [\"rk4\", \"rk4\", \"midpoint\", \"rk5\", "
+         "\"symplectic_euler\", \"implicit_euler\", \"a1\", \"a2\", \"a3\", \"a4\", \"a5\", \"a6\", \"a7\", "
+         "\"a8\", \"a9\", \"b1\", \"b2\", \"rk4\"]\n",
+         "'rk5'", 6},
+        // metrics the scenario's entity cannot give: refused before any case, not an empty column
+        {"[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"count\"\n", "has no count", 5},
+        {"[[metric]]\nname = \"m\"\nentity = \"chain\"\nindex = 31\n", "index 31 is past them", 5},
+        {"[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"h\"\n", "has no h", 5},
     };
     for (const Case& c : cases) {
         const std::string out = tempPath("refused_out");
@@ -396,6 +426,35 @@ TEST(SweepLocal, ASweepKilledHalfWayFinishesWithTheSameTableAndRerunsNothingFini
     }
 }
 
+TEST(SweepLocal, SigtermStopsTheRunsAndKeepsNoResultOfThem) {
+    const std::string file = writeTemp("termed.toml", ropeSweep("[[axis]]\nkey = \"chain.rope.damping\"\n"
+                                                                "range = [0.1, 0.5, 8]\n",
+                                                                "", 240));
+    const std::string whole = tempPath("termed_whole"), termed = tempPath("termed_out");
+    ASSERT_EQ(runTumble({"sweep", file, "--local", "-j", "2", "--out", whole}).exitCode, 0);
+    const pid_t pid = startSweep({"sweep", file, "--local", "-j", "2", "--out", termed});
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (resultsIn(termed) < 2 && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 130);
+    const std::size_t kept = resultsIn(termed);
+    ASSERT_LT(kept, 8u) << "the sweep ended before it was stopped: make its cases longer";
+    // the runs it stopped left no result (a row of exit 130 would be an error never run again)
+    for (const auto& entry : fs::directory_iterator(termed + "/cases")) {
+        if (fs::exists(entry.path() / "result.json")) {
+            EXPECT_EQ(readFile((entry.path() / "result.json").string()).find("\"exit_code\":130"),
+                      std::string::npos);
+        }
+    }
+    ASSERT_EQ(runTumble({"sweep", file, "--local", "--out", termed}).exitCode, 0);
+    EXPECT_EQ(untimed(readCsv(termed + "/results.csv")), untimed(readCsv(whole + "/results.csv")));
+}
+
 TEST(SweepLocal, AChangedSweepFileIsRefusedInTheFolderOfTheOld) {
     const std::string out = tempPath("changed_out");
     const std::string a = writeTemp("changed.toml", ropeSweep("[[axis]]\nkey = \"chain.rope.stiffness\"\n"
@@ -460,9 +519,11 @@ TEST(SweepSlurm, WithoutSlurmTheMessageNamesWhatIsMissing) {
     const std::string file = writeTemp("noslurm.toml", ropeSweep(""));
     const std::string empty = tempPath("empty_path");
     fs::create_directories(empty);
-    const auto r = runTumble({"sweep", file, "--slurm", "--out", tempPath("noslurm_out")}, {"PATH=" + empty});
+    const std::string out = tempPath("noslurm_out");
+    const auto r = runTumble({"sweep", file, "--slurm", "--out", out}, {"PATH=" + empty});
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("`sbatch` is not on this machine's PATH"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << "a sweep that could not start made its folder";
 }
 
 } // namespace

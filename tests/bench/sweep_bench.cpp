@@ -43,29 +43,11 @@ void BM_SweepOverhead200Rope(benchmark::State& state) {
     const Sweep sweep = readSweep(file);
     const std::string tumble = std::string(TUMBLE_BINARY);
     for (auto _ : state) {
-        // the runs alone: the command the sweep gives each case, less the outputs it reads back
+        // the runs alone: the command the sweep gives each case, less reading their outputs back
         const auto direct = Clock::now();
         for (std::size_t c = 0; c < sweep.caseCount(); ++c) {
-            std::vector<std::string> argv = {tumble,
-                                             "run",
-                                             sweep.scenarioPath,
-                                             "--no-render",
-                                             "--quiet",
-                                             "--threads",
-                                             "1",
-                                             "--frames",
-                                             "60",
-                                             "--out",
-                                             dir + "/direct",
-                                             "--profile",
-                                             dir + "/direct/profile.json",
-                                             "--record",
-                                             dir + "/direct/run.tumble"};
-            for (const std::string& set : sweep.caseSets(c)) {
-                argv.insert(argv.end(), {"--set", set});
-            }
             fs::create_directories(dir + "/direct");
-            runToEnd(argv, dir + "/direct.log");
+            runToEnd(caseRunCommand(sweep, tumble, dir + "/direct", c, 0), dir + "/direct.log");
         }
         const double directSeconds = seconds(direct);
         fs::remove_all(dir + "/out");

@@ -53,13 +53,15 @@ untimed() {
 }
 
 "$tumble" sweep "$work/sweep24.toml" --local --out "$work/local" --quiet
-time "$tumble" sweep "$work/sweep24.toml" --slurm --tasks 4 --out "$work/slurm"
-[ "$(wc -l <"$work/slurm/results.csv")" -eq 25 ] || { echo "FAIL: not 24 rows" >&2; exit 1; }
-diff <(untimed "$work/local/results.csv") <(untimed "$work/slurm/results.csv") ||
+# a folder with a space and a % in its path: one argument to sbatch, not a pattern
+slurm="$work/slurm 100%"
+time "$tumble" sweep "$work/sweep24.toml" --slurm --tasks 4 --out "$slurm"
+[ "$(wc -l <"$slurm/results.csv")" -eq 25 ] || { echo "FAIL: not 24 rows" >&2; exit 1; }
+diff <(untimed "$work/local/results.csv") <(untimed "$slurm/results.csv") ||
     { echo "FAIL: the Slurm table differs from the local one" >&2; exit 1; }
-grep -q '^#SBATCH --array=0-3$' "$work/slurm/slurm/sweep.sbatch" || { echo "FAIL: not an array of 4" >&2; exit 1; }
+grep -q -- '--array=0-3 ' "$slurm/slurm/submit.txt" || { echo "FAIL: not an array of 4" >&2; exit 1; }
 for task in 0 1 2 3; do
-    ls "$work"/slurm/slurm/task_*_"$task".log >/dev/null || { echo "FAIL: no log of task $task" >&2; exit 1; }
+    ls "$slurm"/slurm/task_*_"$task".log >/dev/null || { echo "FAIL: no log of task $task" >&2; exit 1; }
 done
 echo "ok: 24 cases in 4 array tasks, the same table as --local"
 
