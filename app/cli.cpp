@@ -3,6 +3,7 @@
 #include "app/progress.h"
 #include "app/run_session.h"
 #include "app/sweep.h"
+#include "engine/assets.h"
 #include "engine/replay.h"
 #include "engine/simulation.h"
 
@@ -22,12 +23,6 @@ namespace tumble {
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string executableDirectory() {
-    std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    return ec ? std::string() : exe.parent_path().string();
-}
 
 int commandList() {
     const std::string dir = demoDirectory();
@@ -106,8 +101,9 @@ int commandRun(const Catalog& catalog, const RunOptions& o) {
 }
 
 int commandReplay(const Catalog& catalog, const RunOptions& o) {
-    auto file = std::make_shared<const ReplayFile>(readReplay(o.scenario));
-    const ReplayFile& replay = *file;
+    Source src = replaySource(o.scenario, o.verify, threadsFor(o));
+    src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
+    const ReplayFile& replay = *src.replay;
     if (!replay.complete) {
         std::fprintf(stderr,
                      "tumble: note: %s is cut short at byte %llu of %llu (a recording that was stopped); "
@@ -119,15 +115,6 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
         std::fprintf(stderr, "tumble: note: recorded by build %s, replayed by build %s\n",
                      replay.header.buildId.c_str(), buildId());
     }
-    Source src;
-    src.memoryCap = std::uint64_t(o.memoryCapMiB) << 20;
-    src.threads = threadsFor(o);
-    src.path = replay.header.scenarioPath;
-    src.text = replay.header.scenarioText;
-    src.sets = replay.header.overrides;
-    src.replay = file;
-    src.verify = o.verify;
-    src.replayPath = o.scenario;
     return runSession(catalog, o, src);
 }
 
@@ -524,13 +511,7 @@ std::string demoDirectory() {
     if (const char* env = std::getenv("TUMBLE_DEMOS"); env && *env) {
         return env;
     }
-    const std::string exe = executableDirectory();
-    for (const std::string& candidate : {exe + "/demos", exe + "/../demos"}) {
-        if (!exe.empty() && fs::is_directory(candidate)) {
-            return fs::weakly_canonical(candidate).string();
-        }
-    }
-    return std::string(TUMBLE_SOURCE_DIR) + "/demos";
+    return dataDirectory("demos");
 }
 
 std::string resolveScenario(const std::string& nameOrPath) {

@@ -295,6 +295,9 @@ int RunSession::run() {
     openOutputs();
     runFrames();
     sayWhatHappened(finishOutputs());
+    if (m_src.diverged) {
+        *m_src.diverged = m_diverged;
+    }
     return exitCode();
 }
 
@@ -592,6 +595,19 @@ int RunSession::exitCode() const {
 }
 
 } // namespace
+
+Source replaySource(const std::string& path, bool verify, int threads) {
+    auto file = std::make_shared<const ReplayFile>(readReplay(path));
+    Source src;
+    src.threads = threads;
+    src.path = file->header.scenarioPath;
+    src.text = file->header.scenarioText;
+    src.sets = file->header.overrides;
+    src.replay = file;
+    src.verify = verify;
+    src.replayPath = path;
+    return src;
+}
 
 int runSession(const Catalog& catalog, const RunOptions& options, const Source& source) {
     RunSession session(catalog, options, source);

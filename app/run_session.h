@@ -62,7 +62,11 @@ struct Source {
     std::string replayPath;   ///< the replay or snapshot file, for messages
     std::uint64_t memoryCap = kDefaultMemoryCap; ///< bytes the scene may ask for (--memory-cap)
     int threads = 1;                             ///< threads the steps run on (any number: the same bits)
+    std::string* diverged = nullptr; ///< if given: where a verified replay diverged ("" when it did not)
 };
+
+/// A replay file as a source (read here: throws ReplayError when it cannot be).
+Source replaySource(const std::string& path, bool verify, int threads);
 
 /// An output file opened at the start of a run, so that a bad path fails before any work is done.
 class OutputFile {

@@ -1,27 +1,58 @@
 #include "engine/assets.h"
 
 #include <cstdlib>
+#include <dlfcn.h>
 #include <filesystem>
+#include <vector>
 
 namespace tumble {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+/// What marks a folder as the one sought: demos hold .toml files, assets hold shaders.
+bool holds(const fs::path& dir, const std::string& sub) {
+    std::error_code ec;
+    return sub == "assets" ? fs::is_directory(dir / "shaders", ec) : fs::is_directory(dir, ec);
+}
+
+/// The folders data may sit under, nearest first.
+std::vector<fs::path> dataRoots() {
+    std::vector<fs::path> roots;
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) {
+        roots.insert(roots.end(), {exe.parent_path(), exe.parent_path() / "..",
+                                   exe.parent_path() / ".." / "share" / "tumble"});
+    }
+    // the library this code is in (libtumble.so, the Python module): PREFIX/lib/... -> PREFIX/share/tumble
+    Dl_info info{};
+    if (::dladdr(reinterpret_cast<void*>(&dataRoots), &info) != 0 && info.dli_fname) {
+        for (fs::path up = fs::absolute(info.dli_fname, ec).parent_path(); up.has_relative_path();
+             up = up.parent_path()) {
+            roots.push_back(up / "share" / "tumble");
+        }
+    }
+    return roots;
+}
+
+} // namespace
+
+std::string dataDirectory(const std::string& sub) {
+    for (const fs::path& root : dataRoots()) {
+        if (holds(root / sub, sub)) {
+            return fs::weakly_canonical(root / sub).string();
+        }
+    }
+    return std::string(TUMBLE_SOURCE_DIR) + "/" + sub;
+}
+
 std::string assetDirectory() {
     if (const char* env = std::getenv("TUMBLE_ASSETS"); env && *env) {
         return env;
     }
-    std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec) {
-        for (const fs::path& candidate :
-             {exe.parent_path() / "assets", exe.parent_path() / ".." / "assets"}) {
-            if (fs::is_directory(candidate / "shaders")) {
-                return fs::weakly_canonical(candidate).string();
-            }
-        }
-    }
-    return std::string(TUMBLE_SOURCE_DIR) + "/assets";
+    return dataDirectory("assets");
 }
 
 } // namespace tumble

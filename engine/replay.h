@@ -19,6 +19,7 @@
 #include "engine/catalog.h"
 #include "engine/scene.h"
 #include "engine/world.h"
+#include "tumble/errors.h"
 
 #include <cstdint>
 #include <cstdio>
@@ -28,12 +29,6 @@
 #include <vector>
 
 namespace tumble {
-
-/// A replay file that cannot be read: the message names the file and the byte offset.
-class ReplayError : public std::runtime_error {
-public:
-    ReplayError(const std::string& file, std::uint64_t offset, const std::string& message);
-};
 
 /// One entity's state hash after a frame.
 struct EntityHash {

@@ -5,6 +5,8 @@
 // suggesting the nearest known one. Every failure throws ScenarioError carrying file:line:col of the value
 // (or of the --set override that supplied it), so the first problem is what the user sees.
 
+#include "tumble/errors.h"
+
 #include <toml++/toml.h>
 
 #include <array>
@@ -18,23 +20,6 @@
 #include <vector>
 
 namespace tumble {
-
-/// A problem in a scenario or its overrides; what() is "file:line:col: what is wrong".
-class ScenarioError : public std::runtime_error {
-public:
-    ScenarioError(std::string file, int line, int column, const std::string& message);
-
-    const std::string& file() const { return m_file; }
-    int line() const { return m_line; }     ///< 0 when unknown
-    int column() const { return m_column; } ///< 0 when unknown
-    const std::string& message() const { return m_message; }
-
-private:
-    std::string m_file;
-    int m_line;
-    int m_column;
-    std::string m_message;
-};
 
 /// The memory cap a scenario is loaded under (README "Resource limits"): 4 GiB unless --memory-cap says.
 inline constexpr std::uint64_t kDefaultMemoryCap = 4ull << 30;

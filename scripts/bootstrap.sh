@@ -22,6 +22,7 @@ packages=(
     clang libclang-rt-14-dev clang-format clang-tidy
     libglfw3-dev libimgui-dev xvfb xdotool imagemagick
     slurm-wlm munge
+    pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 )
 
 install_missing() {

@@ -1,0 +1,246 @@
+// The embedding API (include/tumble/sandbox.h): a Simulation of the built-in systems, stepped by the
+// caller, with the command line's own pieces for events, dumps, profiles and replays.
+
+#include "tumble/sandbox.h"
+
+#include "app/cli.h"
+#include "app/run_session.h"
+#include "engine/dump.h"
+#include "engine/replay.h"
+#include "engine/run_report.h"
+#include "engine/simulation.h"
+#include "systems/builtin.h"
+
+#include <nlohmann/json.hpp>
+
+namespace tumble {
+
+namespace {
+
+const Catalog& builtins() {
+    static const Catalog catalog = [] {
+        Catalog c;
+        registerBuiltinSystems(c);
+        return c;
+    }();
+    return catalog;
+}
+
+/// The dump's words for non-finite numbers are not JSON: quoted, they parse (as strings, read back below).
+double jsonNumber(const nlohmann::json& j) {
+    if (j.is_number()) {
+        return j.get<double>();
+    }
+    const std::string s = j.is_string() ? j.get<std::string>() : "NaN";
+    return s == "Infinity" ? HUGE_VAL : s == "-Infinity" ? -HUGE_VAL : std::nan("");
+}
+
+} // namespace
+
+struct Sandbox::State {
+    std::string path;
+    std::string text;
+    std::vector<std::string> sets;
+    std::unique_ptr<Simulation> sim;
+    std::unique_ptr<ReplayWriter> recorder;
+    std::vector<EntityHash> entities; ///< scratch: a frame's entity hashes
+
+    /// One entity's table of the dump, or a ScenarioError naming what is missing.
+    nlohmann::json entityDump(const std::string& name) const {
+        std::string line;
+        sim->appendDump(line);
+        const nlohmann::json dump = nlohmann::json::parse(quoteNonFinite(std::move(line)));
+        const auto e = dump["entities"].find(name);
+        if (e == dump["entities"].end()) {
+            throw ScenarioError(path, 0, 0, "no entity '" + name + "' in the scene");
+        }
+        return *e;
+    }
+
+    std::vector<std::array<double, 3>> rows(const std::string& name, const char* field) const {
+        const nlohmann::json e = entityDump(name);
+        if (!e.contains(field)) {
+            throw ScenarioError(path, 0, 0,
+                                "entity '" + name + "' (" + e.value("kind", std::string("?")) + ") has no " +
+                                    field);
+        }
+        std::vector<std::array<double, 3>> out;
+        for (const nlohmann::json& row : e[field]) {
+            std::array<double, 3> r{0.0, 0.0, 0.0};
+            for (std::size_t i = 0; i < std::min<std::size_t>(3, row.size()); ++i) {
+                r[i] = jsonNumber(row[i]);
+            }
+            out.push_back(r);
+        }
+        return out;
+    }
+
+    void afterFrame() {
+        std::vector<EventDef> applied = sim->takeAppliedEvents();
+        if (recorder) {
+            FrameRecord rec{std::move(applied), frameHashes(sim->world(), sim->catalog(), entities),
+                            entities};
+            recorder->frame(rec);
+        }
+    }
+};
+
+Sandbox::Sandbox(const std::string& scenario, const std::vector<std::string>& sets, int threads)
+    : m(std::make_unique<State>()) {
+    m->path = resolveScenario(scenario);
+    m->text = readScenarioFile(m->path);
+    m->sets = sets;
+    m->sim = std::make_unique<Simulation>(builtins(), m->path, m->text, sets, kDefaultMemoryCap, threads);
+}
+
+Sandbox::~Sandbox() {
+    if (m && m->recorder) {
+        try {
+            m->recorder->finish();
+        } catch (const std::exception&) {
+            // a destructor cannot say it: finishRecording() does
+        }
+    }
+}
+
+Sandbox::Sandbox(Sandbox&&) noexcept = default;
+Sandbox& Sandbox::operator=(Sandbox&&) noexcept = default;
+
+void Sandbox::step(int frames) {
+    for (int i = 0; i < frames; ++i) {
+        m->sim->runFrame();
+        m->afterFrame();
+    }
+}
+
+std::uint64_t Sandbox::frame() const {
+    return m->sim->frame();
+}
+
+double Sandbox::time() const {
+    return m->sim->time();
+}
+
+double Sandbox::dt() const {
+    return m->sim->scene().dt;
+}
+
+std::map<std::string, std::string> Sandbox::entities() const {
+    std::vector<EntityHash> hashes;
+    frameHashes(m->sim->world(), m->sim->catalog(), hashes);
+    std::map<std::string, std::string> out;
+    for (const EntityHash& e : hashes) {
+        out[e.name] = e.kind;
+    }
+    return out;
+}
+
+std::vector<std::array<double, 3>> Sandbox::x(const std::string& entity) const {
+    return m->rows(entity, "x");
+}
+
+std::vector<std::array<double, 3>> Sandbox::v(const std::string& entity) const {
+    return m->rows(entity, "v");
+}
+
+int Sandbox::dimensions(const std::string& entity) const {
+    return m->entityDump(entity).value("kind", std::string()) == "rigid2d" ? 2 : 3;
+}
+
+void Sandbox::apply(const std::string& entity, const std::string& action, const std::vector<double>& value,
+                    std::optional<std::array<double, 3>> position, std::optional<double> radius,
+                    std::optional<double> amount) {
+    EventDef ev;
+    ev.step = m->sim->step();
+    ev.entity = entity;
+    ev.action = action;
+    ev.value = value;
+    std::vector<std::string> present;
+    if (!value.empty()) {
+        present.push_back("value");
+    }
+    if (position) {
+        ev.position = *position;
+        present.push_back("position");
+    }
+    if (radius) {
+        ev.radius = *radius;
+        present.push_back("radius");
+    }
+    if (amount) {
+        ev.amount = *amount;
+        present.push_back("amount");
+    }
+    if (action == "set") {
+        throw ScenarioError("apply", 0, 0, "a set takes KEY=VALUE: call set(\"" + entity + ".KEY=VALUE\")");
+    }
+    if (auto problem = resolveEvent(m->sim->catalog(), m->sim->world(), ev, present)) {
+        throw ScenarioError("apply", 0, 0, *problem);
+    }
+    m->sim->addEvents({ev});
+}
+
+void Sandbox::set(const std::string& keyValue) {
+    EventDef ev;
+    ev.step = m->sim->step();
+    ev.action = "set";
+    ev.set = keyValue;
+    std::vector<EventDef> events = m->sim->pendingEvents();
+    events.push_back(ev);
+    if (auto problem = m->sim->checkSetEvents(events)) {
+        throw ScenarioError("set", 0, 0, *problem);
+    }
+    m->sim->addEvents({ev});
+}
+
+std::uint64_t Sandbox::hash() const {
+    return m->sim->hash();
+}
+
+std::string Sandbox::dump() const {
+    std::string line;
+    m->sim->appendDump(line);
+    while (!line.empty() && line.back() == '\n') {
+        line.pop_back();
+    }
+    return line;
+}
+
+std::string Sandbox::profile() const {
+    return budgetSummaryJson(m->sim->profiler(), m->sim->scene(), m->sim->frame(), m->sim->threads());
+}
+
+std::vector<std::string> Sandbox::failures() const {
+    return m->sim->world().resource<RunReport>().failures;
+}
+
+void Sandbox::record(const std::string& path) {
+    if (m->sim->frame() > 0) {
+        throw ScenarioError(path, 0, 0, "record before the first step: a replay starts at frame 0");
+    }
+    m->recorder = std::make_unique<ReplayWriter>(
+        path, ReplayHeader{kReplayVersion, buildId(), m->path, m->text, m->sets});
+}
+
+void Sandbox::finishRecording() {
+    if (m->recorder) {
+        m->recorder->finish();
+        m->recorder.reset();
+    }
+}
+
+std::string verifyReplay(const std::string& path, int threads) {
+    RunOptions o;
+    o.scenario = path;
+    o.verify = true;
+    o.noRender = true;
+    o.quiet = true;
+    o.profile = "/dev/null"; // a run writes its budget summary somewhere: here nowhere
+    std::string diverged;
+    Source src = replaySource(path, true, threads > 0 ? threads : defaultThreadCount());
+    src.diverged = &diverged;
+    runSession(builtins(), o, src);
+    return diverged;
+}
+
+} // namespace tumble

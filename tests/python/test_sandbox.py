@@ -1,0 +1,151 @@
+"""The Python module `tumble` (ctest `python.sandbox`): the hash of 60 frames of rope equal to the
+`tumble` program's own, the state as NumPy arrays of the right shapes, events, dumps, profiles, replays,
+and every public call given bad arguments raising, never crashing the interpreter."""
+
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import tumble
+
+TUMBLE = os.environ["TUMBLE_BINARY"]
+
+
+def program_hash(tmp_path, scenario, frames, *sets):
+    """The `tumble` program's dump hash of the last frame (16 hex digits after 0x)."""
+    dump = tmp_path / "state.jsonl"
+    args = [TUMBLE, "run", scenario, "--no-render", "--quiet", "--frames", str(frames), "--dump", str(dump),
+            "--out", str(tmp_path / "out")]
+    for s in sets:
+        args += ["--set", s]
+    subprocess.run(args, check=True)
+    return int(json.loads(dump.read_text().splitlines()[-1])["hash"], 16)
+
+
+def test_rope_hash_after_60_frames_equals_the_programs(tmp_path):
+    sim = tumble.Sandbox("rope")
+    sim.step(60)
+    assert sim.frame == 60
+    assert sim.hash() == program_hash(tmp_path, "rope", 60)
+
+
+def test_threads_and_sets_give_the_programs_bits(tmp_path):
+    sim = tumble.Sandbox("rope", set=["chain.rope.stiffness=900"], threads=2)
+    sim.step(30)
+    assert sim.hash() == program_hash(tmp_path, "rope", 30, "chain.rope.stiffness=900")
+
+
+def test_state_as_numpy_arrays():
+    sim = tumble.Sandbox("rope", threads=1)
+    assert sim.entities["chain"] == "springs"
+    x0 = sim.x("chain")
+    assert x0.shape == (31, 3) and x0.dtype == np.float64
+    # the rope starts along +x from its pin at (0, 2.2, 0): 2 m in 30 segments
+    assert np.allclose(x0[0], [0.0, 2.2, 0.0])
+    assert np.isclose(np.linalg.norm(np.diff(x0, axis=0), axis=1).sum(), 2.0, rtol=1e-9)
+    sim.step(10)
+    assert sim.v("chain").shape == (31, 3)
+    assert np.isclose(sim.time, 10 * 16 * sim.dt)
+    # the pinned end does not move; the free end falls
+    assert np.allclose(sim.x("chain")[0], x0[0])
+    assert sim.x("chain")[-1][1] < x0[-1][1]
+
+
+def test_a_2d_body_has_two_columns():
+    sim = tumble.Sandbox("pyramid2d", threads=1)
+    name, kind = next((n, k) for n, k in sim.entities.items() if k == "rigid2d")
+    assert sim.x(name).shape[1] == 2
+    assert sim.v(name).shape[1] == 2
+
+
+def test_apply_an_impulse_changes_the_velocity():
+    a = tumble.Sandbox("rope", threads=1)
+    b = tumble.Sandbox("rope", threads=1)
+    b.apply("chain", "impulse", value=[0.0, 0.0, 3.0])
+    a.step(1)
+    b.step(1)
+    assert b.v("chain")[:, 2].sum() > a.v("chain")[:, 2].sum() + 1.0
+    assert a.hash() != b.hash()
+
+
+def test_set_event_and_dump_and_profile():
+    sim = tumble.Sandbox("rope", threads=1)
+    sim.set("scene.gravity=[0.0, 0.0, 0.0]")
+    sim.step(2)
+    dump = sim.dump()
+    assert dump["frame"] == 2 and "chain" in dump["entities"]
+    assert int(dump["hash"], 16) == sim.hash()
+    profile = sim.profile()
+    assert profile["scene"] == "rope" and profile["frames"] == 2
+
+
+def test_record_then_verify(tmp_path):
+    path = str(tmp_path / "r.tumble")
+    sim = tumble.Sandbox("rope", threads=1)
+    sim.record(path)
+    sim.apply("chain", "impulse", value=[0.0, 1.0, 0.0])
+    sim.step(20)
+    sim.finish_recording()
+    assert tumble.verify(path, threads=2) is True
+    assert subprocess.run([TUMBLE, "replay", path, "--verify", "--no-render", "--quiet",
+                           "--out", str(tmp_path / "o")]).returncode == 0
+
+
+def test_bad_input_raises_scenario_error_naming_it():
+    with pytest.raises(tumble.ScenarioError, match="stifness.*did you mean 'stiffness'"):
+        tumble.Sandbox("rope", set=["chain.rope.stifness=5"])
+    assert issubclass(tumble.ScenarioError, ValueError)
+    with pytest.raises(tumble.ScenarioError, match="no_such_demo"):
+        tumble.Sandbox("no_such_demo")
+
+
+@pytest.mark.parametrize("call", [
+    lambda: tumble.Sandbox(None),
+    lambda: tumble.Sandbox("rope", set="chain.rope.stiffness=5x"),
+    lambda: tumble.Sandbox("rope", threads=0),
+    lambda: tumble.Sandbox("rope", threads="two"),
+    lambda: tumble.Sandbox("/dev/null"),
+])
+def test_bad_constructor_arguments_raise(call):
+    with pytest.raises((ValueError, TypeError)):
+        call()
+
+
+@pytest.fixture(scope="module")
+def rope():
+    return tumble.Sandbox("rope", threads=1)
+
+
+@pytest.mark.parametrize("call", [
+    lambda s: s.step(-1),
+    lambda s: s.step("x"),
+    lambda s: s.step(2**40),
+    lambda s: s.x("ghost"),
+    lambda s: s.v(3),
+    lambda s: s.apply("ghost", "impulse", value=[0, 0, 1]),
+    lambda s: s.apply("chain", "no_such_action"),
+    lambda s: s.apply("chain", "impulse", value=[0, 1]),
+    lambda s: s.apply("chain", "impulse", value="up"),
+    lambda s: s.apply("chain", "impulse", value=[0, 0, 1], position=[1, 2]),
+    lambda s: s.set("chain.rope.segments=3"),
+    lambda s: s.set("not a key"),
+    lambda s: s.record("/no/such/folder/r.tumble"),
+    lambda s: tumble.verify("/no/such/file.tumble"),
+    lambda s: tumble.verify(__file__),
+])
+def test_bad_arguments_raise_and_leave_the_sandbox_working(rope, call):
+    with pytest.raises((ValueError, TypeError, RuntimeError)):
+        call(rope)
+    before = rope.frame
+    rope.step(1)
+    assert rope.frame == before + 1
+
+
+def test_record_after_stepping_is_refused():
+    sim = tumble.Sandbox("rope", threads=1)
+    sim.step(1)
+    with pytest.raises(tumble.ScenarioError, match="before the first step"):
+        sim.record("/tmp/never.tumble")
