@@ -13,18 +13,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cmath>
+
 namespace tumble {
 
 namespace {
-
-const Catalog& builtins() {
-    static const Catalog catalog = [] {
-        Catalog c;
-        registerBuiltinSystems(c);
-        return c;
-    }();
-    return catalog;
-}
 
 /// The dump's words for non-finite numbers are not JSON: quoted, they parse (as strings, read back below).
 double jsonNumber(const nlohmann::json& j) {
@@ -90,7 +84,8 @@ Sandbox::Sandbox(const std::string& scenario, const std::vector<std::string>& se
     m->path = resolveScenario(scenario);
     m->text = readScenarioFile(m->path);
     m->sets = sets;
-    m->sim = std::make_unique<Simulation>(builtins(), m->path, m->text, sets, kDefaultMemoryCap, threads);
+    m->sim =
+        std::make_unique<Simulation>(builtinCatalog(), m->path, m->text, sets, kDefaultMemoryCap, threads);
 }
 
 Sandbox::~Sandbox() {
@@ -239,7 +234,7 @@ std::string verifyReplay(const std::string& path, int threads) {
     std::string diverged;
     Source src = replaySource(path, true, threads > 0 ? threads : defaultThreadCount());
     src.diverged = &diverged;
-    runSession(builtins(), o, src);
+    runSession(builtinCatalog(), o, src);
     return diverged;
 }
 

@@ -90,4 +90,13 @@ void registerBuiltinSystems(Catalog& catalog) {
     }
 }
 
+const Catalog& builtinCatalog() {
+    static const Catalog catalog = [] {
+        Catalog c;
+        registerBuiltinSystems(c);
+        return c;
+    }();
+    return catalog;
+}
+
 } // namespace tumble

@@ -15,4 +15,7 @@ const std::vector<SystemEntry>& builtinSystems();
 /// Registers the built-in components, state codecs and event actions, then builtinSystems() in order.
 void registerBuiltinSystems(Catalog& catalog);
 
+/// A catalog of the built-in systems, made once (the library and the tests share it).
+const Catalog& builtinCatalog();
+
 } // namespace tumble

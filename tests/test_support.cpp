@@ -109,12 +109,7 @@ std::vector<std::string> demoNames() {
 }
 
 const Catalog& builtinCatalog() {
-    static const Catalog catalog = [] {
-        Catalog c;
-        registerBuiltinSystems(c);
-        return c;
-    }();
-    return catalog;
+    return tumble::builtinCatalog();
 }
 
 std::unique_ptr<Simulation> makeSimulation(const std::string& text,
