@@ -60,6 +60,10 @@ struct Sandbox::State {
         }
         std::vector<std::array<double, 3>> out;
         for (const nlohmann::json& row : e[field]) {
+            if (!row.is_array()) {
+                throw ScenarioError(path, 0, 0,
+                                    "entity '" + name + "': its " + field + " is not rows of numbers");
+            }
             std::array<double, 3> r{0.0, 0.0, 0.0};
             for (std::size_t i = 0; i < std::min<std::size_t>(3, row.size()); ++i) {
                 r[i] = jsonNumber(row[i]);

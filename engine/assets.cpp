@@ -17,22 +17,24 @@ bool holds(const fs::path& dir, const std::string& sub) {
     return sub == "assets" ? fs::is_directory(dir / "shaders", ec) : fs::is_directory(dir, ec);
 }
 
-/// The folders data may sit under, nearest first.
+/// The folders data may sit under, in the order they are tried: first PREFIX/share/tumble above the
+/// file that holds this code (libtumble.so or the Python module in PREFIX/lib/..., the program itself in
+/// PREFIX/bin), found by dladdr; then beside the program or one folder up (the build tree). The library's
+/// own place comes first so that a program embedding it, with a demos/ folder of its own beside it, still
+/// gets Tumble's.
 std::vector<fs::path> dataRoots() {
     std::vector<fs::path> roots;
     std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec) {
-        roots.insert(roots.end(), {exe.parent_path(), exe.parent_path() / "..",
-                                   exe.parent_path() / ".." / "share" / "tumble"});
-    }
-    // the library this code is in (libtumble.so, the Python module): PREFIX/lib/... -> PREFIX/share/tumble
     Dl_info info{};
     if (::dladdr(reinterpret_cast<void*>(&dataRoots), &info) != 0 && info.dli_fname) {
         for (fs::path up = fs::absolute(info.dli_fname, ec).parent_path(); up.has_relative_path();
              up = up.parent_path()) {
             roots.push_back(up / "share" / "tumble");
         }
+    }
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) {
+        roots.insert(roots.end(), {exe.parent_path(), exe.parent_path() / ".."});
     }
     return roots;
 }

@@ -11,9 +11,9 @@ namespace tumble {
 /// The folder that holds shaders and meshes: $TUMBLE_ASSETS, else dataDirectory("assets").
 std::string assetDirectory();
 
-/// `sub` (demos or assets) of the first of these that has it: beside the executable or one folder up (the
-/// build tree), PREFIX/share/tumble for an executable in PREFIX/bin, the same beside the library holding
-/// this code (found by dladdr), else the source tree's.
+/// `sub` (demos or assets) of the first of these that has it: PREFIX/share/tumble above the file that
+/// holds this code (the program in PREFIX/bin, the library or module under PREFIX/lib; found by dladdr),
+/// beside the program or one folder up (the build tree), else the source tree's.
 std::string dataDirectory(const std::string& sub);
 
 } // namespace tumble

@@ -22,7 +22,8 @@
 
 namespace tumble {
 
-/// One scenario in one world; see the header comment. Not copyable; movable.
+/// One scenario in one world; see the header comment. Not copyable; movable. One thread at a time: a
+/// Sandbox is not locked (its steps use the worker threads it was given).
 class Sandbox {
 public:
     /// Loads a demo (by name) or a scenario file, with `--set` overrides ("KEY=VALUE"), stepping on
