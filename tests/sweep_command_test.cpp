@@ -386,6 +386,21 @@ std::size_t resultsIn(const std::string& out) {
     return n;
 }
 
+/// Starts a --local sweep into `out`, waits until `results` of its cases have ended, sends it `signal`
+/// and returns its wait status.
+int stopSweepAfter(const std::string& file, const std::string& out, const char* jobs, std::size_t results,
+                   int signal) {
+    const pid_t pid = startSweep({"sweep", file, "--local", "-j", jobs, "--out", out});
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (resultsIn(out) < results && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ::kill(pid, signal);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return status;
+}
+
 TEST(SweepLocal, ASweepKilledHalfWayFinishesWithTheSameTableAndRerunsNothingFinished) {
     const std::string file =
         writeTemp("killed.toml", ropeSweep("[[axis]]\nkey = \"chain.rope.stiffness\"\n"
@@ -396,14 +411,7 @@ TEST(SweepLocal, ASweepKilledHalfWayFinishesWithTheSameTableAndRerunsNothingFini
     const std::string whole = tempPath("whole_out"), killed = tempPath("killed_out");
     ASSERT_EQ(runTumble({"sweep", file, "--local", "-j", "2", "--out", whole}).exitCode, 0);
 
-    const pid_t pid = startSweep({"sweep", file, "--local", "-j", "1", "--out", killed});
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (resultsIn(killed) < 4 && std::chrono::steady_clock::now() < deadline) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-    ::kill(pid, SIGKILL);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
+    stopSweepAfter(file, killed, "1", 4, SIGKILL);
     const std::size_t finished = resultsIn(killed);
     ASSERT_GE(finished, 4u);
     ASSERT_LT(finished, 12u) << "the sweep ended before it was killed: make its cases longer";
@@ -432,14 +440,7 @@ TEST(SweepLocal, SigtermStopsTheRunsAndKeepsNoResultOfThem) {
                                                                 "", 240));
     const std::string whole = tempPath("termed_whole"), termed = tempPath("termed_out");
     ASSERT_EQ(runTumble({"sweep", file, "--local", "-j", "2", "--out", whole}).exitCode, 0);
-    const pid_t pid = startSweep({"sweep", file, "--local", "-j", "2", "--out", termed});
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (resultsIn(termed) < 2 && std::chrono::steady_clock::now() < deadline) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-    ::kill(pid, SIGTERM);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
+    const int status = stopSweepAfter(file, termed, "2", 2, SIGTERM);
     ASSERT_TRUE(WIFEXITED(status));
     EXPECT_EQ(WEXITSTATUS(status), 130);
     const std::size_t kept = resultsIn(termed);
