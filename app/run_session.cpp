@@ -375,7 +375,8 @@ bool RunSession::afterFrame() {
     if (!m_recorder && !m_src.replay && !m_o.snapshotAt) {
         return true;
     }
-    FrameRecord rec{std::move(applied), frameHashes(m_sim->world(), m_catalog, m_entities), m_entities};
+    FrameRecord rec{std::move(applied), frameHashes(m_sim->world(), m_catalog, m_entities, m_sim->pool()),
+                    m_entities};
     const std::uint64_t f = m_sim->frame();
     if (m_src.replay && (m_src.verify || f <= m_src.resume) && f <= m_src.replay->frames.size()) {
         const FrameRecord& expected = m_src.replay->frames[f - 1];

@@ -76,8 +76,8 @@ struct Sandbox::State {
     void afterFrame() {
         std::vector<EventDef> applied = sim->takeAppliedEvents();
         if (recorder) {
-            FrameRecord rec{std::move(applied), frameHashes(sim->world(), sim->catalog(), entities),
-                            entities};
+            FrameRecord rec{std::move(applied),
+                            frameHashes(sim->world(), sim->catalog(), entities, sim->pool()), entities};
             recorder->frame(rec);
         }
     }
@@ -126,7 +126,7 @@ double Sandbox::dt() const {
 
 std::map<std::string, std::string> Sandbox::entities() const {
     std::vector<EntityHash> hashes;
-    frameHashes(m->sim->world(), m->sim->catalog(), hashes);
+    frameHashes(m->sim->world(), m->sim->catalog(), hashes, m->sim->pool());
     std::map<std::string, std::string> out;
     for (const EntityHash& e : hashes) {
         out[e.name] = e.kind;

@@ -606,7 +606,7 @@ void Viewer::step() {
     ++m_simFrames;
     std::vector<EventDef> applied = m_sim->takeAppliedEvents();
     if (m_recorder) {
-        const std::uint64_t hash = frameHashes(m_sim->world(), m_catalog, m_entities);
+        const std::uint64_t hash = frameHashes(m_sim->world(), m_catalog, m_entities, m_sim->pool());
         m_recorder->frame(FrameRecord{std::move(applied), hash, m_entities});
     }
 }

@@ -31,8 +31,8 @@ void appendDumpLine(std::string& out, const World& world, const Catalog& catalog
     out += '\n';
 }
 
-std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e) {
-    Hasher h;
+std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e, WorkerPool* pool) {
+    Hasher h(pool);
     h.add(e.index);
     for (const StateCodec& codec : catalog.states()) {
         if (codec.has(world, e)) {
@@ -42,10 +42,10 @@ std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e) {
     return h.digest();
 }
 
-std::uint64_t stateHash(const World& world, const Catalog& catalog) {
+std::uint64_t stateHash(const World& world, const Catalog& catalog, WorkerPool* pool) {
     Hasher h;
     for (Entity e : world.entities()) {
-        h.add(entityHash(world, catalog, e));
+        h.add(entityHash(world, catalog, e, pool));
     }
     return h.digest();
 }

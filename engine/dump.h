@@ -15,11 +15,12 @@ namespace tumble {
 void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame,
                     double t, std::uint64_t hash);
 
-/// 64-bit hash of every simulated byte in the world (every codec's bytes, entity by entity).
-std::uint64_t stateHash(const World& world, const Catalog& catalog);
+/// 64-bit hash of every simulated byte in the world (every codec's bytes, entity by entity). `pool`
+/// (optional) hashes long arrays on its workers, with the same result (engine/hash.h).
+std::uint64_t stateHash(const World& world, const Catalog& catalog, WorkerPool* pool = nullptr);
 
 /// The hash of one entity's simulated state.
-std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e);
+std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e, WorkerPool* pool = nullptr);
 
 /// "0x" followed by 16 hex digits.
 std::string hashHex(std::uint64_t h);

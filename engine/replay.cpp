@@ -17,9 +17,7 @@
 namespace tumble {
 
 std::uint64_t replayChecksum(const std::string& bytes) {
-    Hasher h;
-    h.bytes(bytes.data(), bytes.size());
-    return h.digest();
+    return Hasher::of(bytes.data(), bytes.size());
 }
 
 namespace {
@@ -145,11 +143,12 @@ const char* buildId() {
     return TUMBLE_BUILD_ID;
 }
 
-std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities) {
+std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities,
+                          WorkerPool* pool) {
     entities.clear();
     Hasher total;
     for (Entity e : world.entities()) {
-        const std::uint64_t h = entityHash(world, catalog, e);
+        const std::uint64_t h = entityHash(world, catalog, e, pool);
         total.add(h);
         const Name* name = world.tryGet<Name>(e);
         if (!name) {

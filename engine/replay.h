@@ -67,9 +67,9 @@ struct ReplayFile {
 /// Goes up whenever the simulated bits or the layout change (2: the multicolour smoother of large cloths; 3:
 /// the implicit solver's rows summed in two partials for its AVX2 kernels, keyed particle births, the `set`
 /// event's KEY=VALUE in every event; 4: fem bodies' rotations started from their spin, their system blocks
-/// summed in float; 5: fem elements two at a time in their own arithmetic), so that another version's
-/// replay is refused with a message rather than failing to verify.
-inline constexpr std::uint32_t kReplayVersion = 5;
+/// summed in float; 5: fem elements two at a time in their own arithmetic; 6: every hash and checksum on
+/// XXH3-64), so that another version's replay is refused with a message rather than failing to verify.
+inline constexpr std::uint32_t kReplayVersion = 6;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.
@@ -115,7 +115,9 @@ ReplayFile parseReplay(const std::string& path, const std::string& bytes);
 /// The checksum the header, each chunk's payload and the end marker's count carry.
 std::uint64_t replayChecksum(const std::string& bytes);
 
-/// The state hash and, for every named entity with simulated state, its own hash.
-std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities);
+/// The state hash and, for every named entity with simulated state, its own hash. `pool` (optional) hashes
+/// long arrays on its workers, with the same result.
+std::uint64_t frameHashes(const World& world, const Catalog& catalog, std::vector<EntityHash>& entities,
+                          WorkerPool* pool = nullptr);
 
 } // namespace tumble

@@ -154,7 +154,7 @@ std::vector<EventDef> Simulation::takeAppliedEvents() {
 }
 
 std::uint64_t Simulation::hash() const {
-    return stateHash(m_world, m_catalog);
+    return stateHash(m_world, m_catalog, m_pool.get());
 }
 
 void Simulation::appendDump(std::string& out) const {

@@ -41,6 +41,8 @@ public:
     /// Threads the steps use (engine/parallel.h): any number gives the same bits.
     void setThreads(int threads);
     int threads() const { return m_pool->threads(); }
+    /// The steps' workers, for other work between steps (the state hash).
+    WorkerPool* pool() const { return m_pool.get(); }
 
     /// Advance one frame: exactly `substeps` fixed steps (headless, deterministic).
     void runFrame();

@@ -17,7 +17,7 @@ jobs=$(nproc 2>/dev/null || echo 2)
 packages=(
     g++ cmake ninja-build pkg-config git
     libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev libbullet-dev libbox2d-dev libcgal-dev
-    libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
+    libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libxxhash-dev
     libegl-dev libgles-dev libegl-mesa0 ffmpeg
     clang libclang-rt-14-dev clang-format clang-tidy
     libglfw3-dev libimgui-dev xvfb xdotool imagemagick

@@ -1,10 +1,14 @@
 // A million live particles: one step of births, ageing, deaths, gravity and drag on the `million` demo
 // (demos/million.toml) at its steady state, with the vectorised update and, for the ratio, a plain scalar
 // loop over the same arrays (the same births, deaths by swap-remove as they are met).
+// Then the state hash of that world as a recording takes it every frame (engine/replay.h frameHashes),
+// against the hash it replaced (replay format 5's multiply-rotate mix, kept here as the baseline) over the
+// same bytes.
 //   build/tests/bench/tumble_bench --benchmark_filter=Million --benchmark_repetitions=5
 
 #include "components/particles.h"
 #include "engine/parallel.h"
+#include "engine/replay.h"
 #include "engine/simulation.h"
 #include "systems/builtin.h"
 #include "systems/particle_system.h"
@@ -13,6 +17,7 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 
 namespace tumble {
@@ -94,6 +99,44 @@ void BM_MillionParticlesPlainLoop(benchmark::State& state) {
     runMillion(state, true);
 }
 BENCHMARK(BM_MillionParticlesPlainLoop)->Unit(benchmark::kMillisecond)->Iterations(300);
+
+void BM_MillionParticlesStateHash(benchmark::State& state) {
+    MillionScene s = steadyMillion();
+    s.sim->setThreads(int(state.range(0)));
+    std::vector<EntityHash> entities;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(frameHashes(s.sim->world(), s.sim->catalog(), entities, s.sim->pool()));
+    }
+    state.counters["live"] = static_cast<double>(s.emitter->pool.count);
+}
+// the argument is the thread count
+BENCHMARK(BM_MillionParticlesStateHash)->Unit(benchmark::kMillisecond)->Iterations(200)->Arg(1)->Arg(2);
+
+/// The state hash of replay format 5 (before XXH3): 8 bytes at a time, a multiply-rotate mix per word.
+std::uint64_t formatFiveHash(const ParticlePool& p) {
+    std::uint64_t h = 0x6a09e667f3bcc908ull;
+    const auto word = [&h](std::uint64_t w) {
+        h ^= w * 0x9e3779b97f4a7c15ull;
+        h = ((h << 31) | (h >> 33)) * 0xff51afd7ed558ccdull;
+    };
+    for (const std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+        const auto* bytes = reinterpret_cast<const unsigned char*>(a->data());
+        for (std::size_t at = 0; at + 8 <= std::size_t(p.count) * sizeof(float); at += 8) {
+            std::uint64_t w;
+            std::memcpy(&w, bytes + at, 8);
+            word(w);
+        }
+    }
+    return h;
+}
+
+void BM_MillionParticlesStateHashFormat5(benchmark::State& state) {
+    MillionScene s = steadyMillion();
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(formatFiveHash(s.emitter->pool));
+    }
+}
+BENCHMARK(BM_MillionParticlesStateHashFormat5)->Unit(benchmark::kMillisecond)->Iterations(200);
 
 } // namespace
 } // namespace tumble
