@@ -15,7 +15,7 @@ jobs=$(nproc 2>/dev/null || echo 2)
 
 # the Debian packages the build and the tests need; one list, kept in step with README.md
 packages=(
-    g++ cmake ninja-build pkg-config git
+    g++ cmake ninja-build pkg-config git dpkg-dev file
     libtomlplusplus-dev libcli11-dev libeigen3-dev libstb-dev libbullet-dev libbox2d-dev libcgal-dev
     libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libxxhash-dev
     libegl-dev libgles-dev libegl-mesa0 ffmpeg

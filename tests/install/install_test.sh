@@ -2,7 +2,8 @@
 # The install test (ctest `install.embed`): `cmake --install` into a fresh prefix, then, from an empty
 # folder elsewhere, the installed `tumble list` (reading the installed demos: one is edited to prove it)
 # and `tumble run rope --no-render`, and examples/embed built with find_package(tumble) against the prefix
-# alone, whose hash after 60 frames of rope must equal the dump's "hash" of frame 60.
+# alone, whose hash after 60 frames of rope must equal the dump's "hash" of frame 60; so must examples/engine's,
+# built on the exported engine and systems targets.
 #
 #   install_test.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
@@ -40,6 +41,16 @@ cmake --build "$work/build-embed" >"$work/build.log"
 got=$(sed -n 's/^hash //p' "$work/embed.txt")
 [ "$got" = "$expected" ] || { echo "FAIL: embed's hash $got, the dump's $expected" >&2; exit 1; }
 echo "ok: installed tumble and the embed example agree: $got"
+
+# examples/engine, on the exported static targets (tumble::systems, tumble::engine) and their installed
+# headers: the installed (edited) rope through the engine's own classes gives the same hash
+cmake -S "$source/examples/engine" -B "$work/build-engine" -DCMAKE_PREFIX_PATH="$prefix" \
+    -DCMAKE_BUILD_TYPE=Release >"$work/configure-engine.log"
+cmake --build "$work/build-engine" >"$work/build-engine.log"
+"$work/build-engine/engine_run" "$prefix/share/tumble/demos/rope.toml" 60 | tee "$work/engine.txt"
+got=$(sed -n 's/^hash //p' "$work/engine.txt")
+[ "$got" = "$expected" ] || { echo "FAIL: engine_run's hash $got, the dump's $expected" >&2; exit 1; }
+echo "ok: examples/engine on tumble::systems agrees: $got"
 
 # the installed Python module, from the prefix's Python path: the same installed rope, the same hash
 if [ -x /usr/bin/python3 ] && ls "$prefix"/lib/python3/dist-packages/tumble*.so >/dev/null 2>&1; then
