@@ -11,9 +11,11 @@
 #include "engine/table_reader.h"
 #include "engine/world.h"
 
+#include <array>
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace tumble {
@@ -41,6 +43,11 @@ struct StateCodec {
     std::function<void(const World&, Entity, JsonWriter&)> dump;
     /// Feeds every simulated byte of the component to the hasher.
     std::function<void(const World&, Entity, Hasher&)> hash;
+    /// Optional: the rows the dump writes under "x" or "v" (`field`), the same numbers, without writing the
+    /// dump (for the embedding API's x() and v() on large entities). False when it has no such field.
+    std::function<bool(const World&, Entity, std::string_view field,
+                       std::vector<std::array<double, 3>>& rows)>
+        rows = {};
 };
 
 /// An event action on entities that have some component.
@@ -89,13 +96,23 @@ public:
     void addSystem(SystemEntry system) { m_systems.push_back(std::move(system)); }
     void addRetune(Retune retune) { m_retunes.push_back(std::move(retune)); }
 
-    /// A state codec for component type T from a dump and a hash function of the component.
+    /// Rows of a component's "x" or "v", as StateCodec::rows gives them.
+    using Rows = std::vector<std::array<double, 3>>;
+    /// A state codec for component type T from a dump and a hash function of the component, and
+    /// optionally its x and v rows.
     template <class T>
     void addState(std::string kind, std::function<void(const T&, JsonWriter&)> dump,
-                  std::function<void(const T&, Hasher&)> hash) {
-        addState(StateCodec{std::move(kind), [](const World& w, Entity e) { return w.has<T>(e); },
-                            [dump](const World& w, Entity e, JsonWriter& out) { dump(w.get<T>(e), out); },
-                            [hash](const World& w, Entity e, Hasher& h) { hash(w.get<T>(e), h); }});
+                  std::function<void(const T&, Hasher&)> hash,
+                  std::function<bool(const T&, std::string_view, Rows&)> rows = {}) {
+        StateCodec codec{std::move(kind), [](const World& w, Entity e) { return w.has<T>(e); },
+                         [dump](const World& w, Entity e, JsonWriter& out) { dump(w.get<T>(e), out); },
+                         [hash](const World& w, Entity e, Hasher& h) { hash(w.get<T>(e), h); }};
+        if (rows) {
+            codec.rows = [rows](const World& w, Entity e, std::string_view field, Rows& out) {
+                return rows(w.get<T>(e), field, out);
+            };
+        }
+        addState(std::move(codec));
     }
 
     const ComponentLoader* findComponent(std::string_view key) const;

@@ -155,6 +155,22 @@ void dumpEmitter(const ParticleEmitter& e, JsonWriter& w) {
     w.endArray();
 }
 
+bool emitterRows(const ParticleEmitter& e, std::string_view field, Catalog::Rows& rows) {
+    const ParticlePool& p = e.pool;
+    const bool x = field == "x";
+    if (!x && field != "v") {
+        return false;
+    }
+    const std::vector<float>& a = x ? p.px : p.vx;
+    const std::vector<float>& b = x ? p.py : p.vy;
+    const std::vector<float>& c = x ? p.pz : p.vz;
+    rows.resize(p.count);
+    for (std::uint32_t i = 0; i < p.count; ++i) {
+        rows[i] = {a[i], b[i], c[i]};
+    }
+    return true;
+}
+
 void hashEmitter(const ParticleEmitter& e, Hasher& h) {
     const ParticlePool& p = e.pool;
     h.add(p.count);
@@ -560,7 +576,7 @@ void linkEmitter(TableReader& r, World& world, Entity entity, const EntityLookup
 
 void registerParticleSystem(Catalog& catalog) {
     catalog.addComponent({"emitter", loadEmitter, linkEmitter});
-    catalog.addState<ParticleEmitter>("particles", dumpEmitter, hashEmitter);
+    catalog.addState<ParticleEmitter>("particles", dumpEmitter, hashEmitter, emitterRows);
     catalog.addRetune(emitterRetune());
     // burst: value = [count], or the emitter's own burst size
     catalog.addEventAction({"burst",

@@ -441,6 +441,20 @@ void dumpNetwork(const SpringNetwork& net, JsonWriter& w) {
     list("v", net.v);
 }
 
+/// The rows dumpNetwork writes under "x" and "v".
+bool networkRows(const World& w, Entity e, std::string_view field, Catalog::Rows& rows) {
+    const SpringNetwork& net = w.get<SpringNetwork>(e);
+    if (field != "x" && field != "v") {
+        return false;
+    }
+    const std::vector<Vec3>& a = field == "x" ? net.x : net.v;
+    rows.resize(a.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        rows[i] = {a[i].x, a[i].y, a[i].z};
+    }
+    return true;
+}
+
 void hashNetwork(const SpringNetwork& net, Hasher& h) {
     // the links are left out: they are the scenario's, no system or event changes them, and the scenario
     // (which a replay carries) stands for them; hashing them every frame was 70% of the curtain's hash
@@ -798,7 +812,8 @@ void registerSpringSystem(Catalog& catalog) {
                        if (const auto* work = w.tryGet<SpringWorkspace>(e)) {
                            h.add(work->fem.dv);
                        }
-                   }});
+                   },
+                   networkRows});
     catalog.addState(StateCodec{
         "springs", isSpringNetwork,
         [](const World& w, Entity e, JsonWriter& out) { dumpNetwork(w.get<SpringNetwork>(e), out); },
@@ -809,7 +824,8 @@ void registerSpringSystem(Catalog& catalog) {
                 h.add(work->single.dv);
                 h.add(work->precise.dv);
             }
-        }});
+        },
+        networkRows});
 
     // impulse: a momentum change J shared by the free masses (each gets dv = J / their total mass)
     addNetworkAction(catalog, "impulse", needsVector, [](SpringNetwork& net, const EventDef& ev) {
