@@ -62,7 +62,8 @@ struct Source {
     std::string replayPath;   ///< the replay or snapshot file, for messages
     std::uint64_t memoryCap = kDefaultMemoryCap; ///< bytes the scene may ask for (--memory-cap)
     int threads = 1;                             ///< threads the steps run on (any number: the same bits)
-    std::string* diverged = nullptr; ///< if given: where a verified replay diverged ("" when it did not)
+    /// if given: where a verified replay diverged ("" when it did not), which the run then does not print
+    std::string* diverged = nullptr;
 };
 
 /// A replay file as a source (read here: throws ReplayError when it cannot be).

@@ -101,14 +101,16 @@ def test_set_event_and_dump_and_profile():
     assert profile["scene"] == "rope" and profile["frames"] == 2
 
 
-def test_record_then_verify(tmp_path):
+def test_record_then_verify(tmp_path, capfd):
     path = str(tmp_path / "r.tumble")
     sim = tumble.Sandbox("rope", threads=1)
     sim.record(path)
     sim.apply("chain", "impulse", value=[0.0, 1.0, 0.0])
     sim.step(20)
     sim.finish_recording()
+    capfd.readouterr()
     assert tumble.verify(path, threads=2) is True
+    assert capfd.readouterr().err == "", "the verdict is the return value, not a line on stderr"
     assert subprocess.run([TUMBLE, "replay", path, "--verify", "--no-render", "--quiet",
                            "--out", str(tmp_path / "o")]).returncode == 0
 
