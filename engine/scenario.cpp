@@ -148,6 +148,39 @@ void applyOverride(toml::table& root, const std::string& spec, const char* how, 
 
 // ---- sections
 
+/// [render]: the image, its samples, the key light and its shadows; and the memory its frames take.
+void readRender(const toml::table* t, const LoadContext& ctx, SceneDef& scene) {
+    if (t) {
+        TableReader r(*t, "[render]", ctx);
+        scene.renderWidth = static_cast<int>(r.integer("width", scene.renderWidth, 16, 8192));
+        scene.renderHeight = static_cast<int>(r.integer("height", scene.renderHeight, 16, 8192));
+        scene.background = r.vector<3>("background", scene.background, 0.0, 1.0);
+        scene.renderSamples = static_cast<int>(r.integer("msaa", scene.renderSamples, 1, 16));
+        if ((scene.renderSamples & (scene.renderSamples - 1)) != 0) {
+            r.fail("msaa", "'msaa' in [render] is the samples per pixel: 1 (none), 2, 4, 8 or 16, not " +
+                               std::to_string(scene.renderSamples));
+        }
+        scene.renderShadows = r.boolean("shadows", scene.renderShadows);
+        if (t->contains("light_direction")) {
+            const auto d = r.vector<3>("light_direction", {0.0, -1.0, 0.0}, -1e6, 1e6);
+            const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if (!(n > 1e-9)) {
+                r.fail("light_direction",
+                       "'light_direction' in [render] is where the light shines: not zero");
+            }
+            scene.lightDirection = std::array<double, 3>{d[0] / n, d[1] / n, d[2] / n};
+        }
+        r.finish();
+    }
+    // the frame buffers (colour and depth: 8 bytes a sample; the resolved colour), the read-back frame and
+    // the PNG's rows
+    const std::uint64_t perPixel =
+        24u + 8u * std::uint64_t(scene.renderSamples > 1 ? scene.renderSamples : 0);
+    ctx.charge(t, std::uint64_t(scene.renderWidth) * std::uint64_t(scene.renderHeight) * perPixel,
+               "[render] (" + std::to_string(scene.renderWidth) + " x " + std::to_string(scene.renderHeight) +
+                   " frames)");
+}
+
 void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
     const toml::node* sceneNode = root.get("scene");
     if (!sceneNode) {
@@ -200,17 +233,7 @@ void readSections(toml::table& root, const LoadContext& ctx, SceneDef& scene) {
         }
         c.finish();
     }
-    if (const toml::table* t = section("render")) {
-        TableReader r(*t, "[render]", ctx);
-        scene.renderWidth = static_cast<int>(r.integer("width", scene.renderWidth, 16, 8192));
-        scene.renderHeight = static_cast<int>(r.integer("height", scene.renderHeight, 16, 8192));
-        scene.background = r.vector<3>("background", scene.background, 0.0, 1.0);
-        r.finish();
-    }
-    // the frame buffers (colour and depth), the read-back frame and the PNG's rows
-    ctx.charge(section("render"), std::uint64_t(scene.renderWidth) * std::uint64_t(scene.renderHeight) * 24u,
-               "[render] (" + std::to_string(scene.renderWidth) + " x " + std::to_string(scene.renderHeight) +
-                   " frames)");
+    readRender(section("render"), ctx, scene);
 }
 
 // ---- entities

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,10 @@ struct SceneDef {
     double cameraFovDeg = 45.0;
     int renderWidth = 1280;
     int renderHeight = 720;
+    int renderSamples = 4;     ///< [render] msaa: samples per pixel, resolved before read-back (1: none)
+    bool renderShadows = true; ///< [render] shadows: the key light's shadow map
+    /// [render] light_direction: where the key light shines (unit); unset, from above and behind the camera
+    std::optional<std::array<double, 3>> lightDirection;
     std::array<double, 3> background{0.62, 0.74, 0.86}; ///< RGB in [0, 1], the sky behind everything
 
     /// Simulated time of one frame, s.

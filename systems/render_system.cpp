@@ -24,24 +24,50 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 namespace tumble {
 
-Framebuffer::Framebuffer(int width, int height) : m_width(width), m_height(height) {
-    glGenFramebuffers(1, &m_fbo);
-    glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
-    glGenRenderbuffers(1, &m_color);
-    glBindRenderbuffer(GL_RENDERBUFFER, m_color);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, width, height);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, m_color);
-    glGenRenderbuffers(1, &m_depth);
-    glBindRenderbuffer(GL_RENDERBUFFER, m_depth);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, m_depth);
+namespace {
+
+/// A renderbuffer of `format`, multisampled when samples > 1, attached to the bound framebuffer.
+unsigned attachRenderbuffer(GLenum format, GLenum attachment, int width, int height, int samples) {
+    GLuint id = 0;
+    glGenRenderbuffers(1, &id);
+    glBindRenderbuffer(GL_RENDERBUFFER, id);
+    if (samples > 1) {
+        glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, format, width, height);
+    } else {
+        glRenderbufferStorage(GL_RENDERBUFFER, format, width, height);
+    }
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, attachment, GL_RENDERBUFFER, id);
+    return id;
+}
+
+void checkComplete(int width, int height, int samples) {
     if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
         throw std::runtime_error("the offscreen framebuffer is incomplete (" + std::to_string(width) + " x " +
-                                 std::to_string(height) + ")");
+                                 std::to_string(height) + ", " + std::to_string(samples) + " samples)");
+    }
+}
+
+} // namespace
+
+Framebuffer::Framebuffer(int width, int height, int samples) : m_width(width), m_height(height) {
+    GLint most = 1;
+    glGetIntegerv(GL_MAX_SAMPLES, &most);
+    m_samples = std::max(1, std::min(samples, int(most)));
+    glGenFramebuffers(1, &m_fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
+    m_color = attachRenderbuffer(GL_RGBA8, GL_COLOR_ATTACHMENT0, width, height, m_samples);
+    m_depth = attachRenderbuffer(GL_DEPTH_COMPONENT24, GL_DEPTH_ATTACHMENT, width, height, m_samples);
+    checkComplete(width, height, m_samples);
+    if (m_samples > 1) {
+        glGenFramebuffers(1, &m_resolveFbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, m_resolveFbo);
+        m_resolveColor = attachRenderbuffer(GL_RGBA8, GL_COLOR_ATTACHMENT0, width, height, 1);
+        checkComplete(width, height, 1);
     }
 }
 
@@ -49,6 +75,10 @@ Framebuffer::~Framebuffer() {
     glDeleteRenderbuffers(1, &m_depth);
     glDeleteRenderbuffers(1, &m_color);
     glDeleteFramebuffers(1, &m_fbo);
+    if (m_resolveFbo) {
+        glDeleteRenderbuffers(1, &m_resolveColor);
+        glDeleteFramebuffers(1, &m_resolveFbo);
+    }
 }
 
 void Framebuffer::bind() const {
@@ -56,8 +86,18 @@ void Framebuffer::bind() const {
     glViewport(0, 0, m_width, m_height);
 }
 
+unsigned Framebuffer::resolved() const {
+    if (m_samples <= 1) {
+        return m_fbo;
+    }
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, m_fbo);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, m_resolveFbo);
+    glBlitFramebuffer(0, 0, m_width, m_height, 0, 0, m_width, m_height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    return m_resolveFbo;
+}
+
 void Framebuffer::read(std::vector<std::uint8_t>& rgba) const {
-    bind();
+    glBindFramebuffer(GL_FRAMEBUFFER, resolved());
     const std::size_t row = std::size_t(m_width) * 4;
     rgba.resize(row * std::size_t(m_height));
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
@@ -158,6 +198,17 @@ Mat4 perspective(double fovDeg, double aspect, double nearPlane, double farPlane
     m[10] = float((farPlane + nearPlane) / (nearPlane - farPlane));
     m[11] = -1.0f;
     m[14] = float(2.0 * farPlane * nearPlane / (nearPlane - farPlane));
+    return m;
+}
+
+/// An orthographic projection of the box [-half, half]^2 x [near, far] in front of the eye.
+Mat4 orthographic(double half, double nearPlane, double farPlane) {
+    Mat4 m{};
+    m[0] = float(1.0 / half);
+    m[5] = float(1.0 / half);
+    m[10] = float(-2.0 / (farPlane - nearPlane));
+    m[14] = float(-(farPlane + nearPlane) / (farPlane - nearPlane));
+    m[15] = 1.0f;
     return m;
 }
 
@@ -294,14 +345,22 @@ struct Renderer {
     std::shared_ptr<void> context; ///< the headless context the run opened for us (none in a window)
     std::unique_ptr<Framebuffer> target;
     GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
+    GLuint depthProgram = 0; ///< mesh.vert with a fragment shader that writes nothing: the shadow map's pass
     /// Uniform locations, looked up once when the programs are linked.
-    struct {
+    struct MeshUniforms {
         GLint viewProjection = -1, model = -1, colour = -1, grid = -1, lightDir = -1, eye = -1;
     } mesh;
+    MeshUniforms depth; ///< the depth program's (only its matrices exist there: the others are -1)
     GLint flatViewProjection = -1;
     struct {
         GLint viewProjection = -1, right = -1, up = -1;
     } particle;
+    /// The key light's shadow map (made at the first frame that has a caster) and the mesh program's
+    /// uniforms that read it.
+    GLuint shadowFbo = 0, shadowMap = 0;
+    struct {
+        GLint map = -1, lightViewProjection = -1, enabled = -1, texel = -1;
+    } shadow;
     Mesh sphere, cube, cylinder, plane;
     Mesh ball;                ///< a coarse sphere, drawn once per mass (instanced)
     GLuint ballInstances = 0; ///< per mass: offset and radius
@@ -329,7 +388,9 @@ struct Renderer {
         }
         target.reset();
         smoke.release();
-        for (GLuint program : {meshProgram, flatProgram, particleProgram}) {
+        glDeleteTextures(1, &shadowMap);
+        glDeleteFramebuffers(1, &shadowFbo);
+        for (GLuint program : {meshProgram, flatProgram, particleProgram, depthProgram}) {
             glDeleteProgram(program);
         }
         std::vector<Mesh> meshes{sphere, cube, cylinder, plane, ball};
@@ -378,10 +439,15 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     }
     r.live = true;
     r.target = std::make_unique<Framebuffer>(output.width > 0 ? output.width : scene.renderWidth,
-                                             output.height > 0 ? output.height : scene.renderHeight);
+                                             output.height > 0 ? output.height : scene.renderHeight,
+                                             scene.renderSamples);
     const std::string shaders = assetDirectory() + "/shaders/";
     r.meshProgram = compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "mesh.frag"), "mesh");
     r.flatProgram = compileProgram(readText(shaders + "flat.vert"), readText(shaders + "flat.frag"), "flat");
+    r.depthProgram =
+        compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "depth.frag"), "depth");
+    r.depth.viewProjection = glGetUniformLocation(r.depthProgram, "uViewProjection");
+    r.depth.model = glGetUniformLocation(r.depthProgram, "uModel");
     r.sphere = upload(sphereMesh());
     r.cube = upload(cubeMesh());
     r.cylinder = upload(cylinderMesh());
@@ -405,6 +471,10 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
         glGetUniformLocation(r.meshProgram, "uViewProjection"), glGetUniformLocation(r.meshProgram, "uModel"),
         glGetUniformLocation(r.meshProgram, "uColor"),          glGetUniformLocation(r.meshProgram, "uGrid"),
         glGetUniformLocation(r.meshProgram, "uLightDir"),       glGetUniformLocation(r.meshProgram, "uEye")};
+    r.shadow = {glGetUniformLocation(r.meshProgram, "uShadowMap"),
+                glGetUniformLocation(r.meshProgram, "uLightViewProjection"),
+                glGetUniformLocation(r.meshProgram, "uShadows"),
+                glGetUniformLocation(r.meshProgram, "uShadowTexel")};
     r.flatViewProjection = glGetUniformLocation(r.flatProgram, "uViewProjection");
     r.particle = {glGetUniformLocation(r.particleProgram, "uViewProjection"),
                   glGetUniformLocation(r.particleProgram, "uRight"),
@@ -520,7 +590,9 @@ void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat&
 /// An edge is drawn 4 cm wide, to be seen (it collides as a 1 cm strip: components/rigid_body_2d.h).
 constexpr double kEdgeDrawnHalfWidth = 0.02;
 
-void drawColliders(World& world, Renderer& r, double alpha) {
+/// The rigid bodies, 3D and 2D, with the mesh program as it stands; `planes` false leaves the ground planes
+/// out (they cast no shadow).
+void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) {
     const GLint modelLoc = r.mesh.model;
     const GLint colourLoc = r.mesh.colour;
     const GLint gridLoc = r.mesh.grid;
@@ -541,6 +613,9 @@ void drawColliders(World& world, Renderer& r, double alpha) {
         auto placed = [&](const Vec3& at, const Vec3& scale) { return model(at, scale, ax, ay, az); };
         switch (b.shape) {
         case ShapeKind::Plane: {
+            if (!planes) {
+                break;
+            }
             const Vec3 n = b.normal;
             Vec3 t = std::abs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 0, 1});
             t = t * (1.0 / length(t));
@@ -693,6 +768,158 @@ void drawLines(Renderer& r) {
     r.flat.clear();
 }
 
+/// A network without a surface: its masses as small lit balls of one colour (instanced).
+void drawBalls(Renderer& r, const SpringNetwork& net, const std::vector<Vec3>& x,
+               const std::array<float, 4>& c) {
+    const float radius = float(std::max(0.04, net.thickness));
+    r.instances.clear();
+    for (const Vec3& p : x) {
+        r.instances.insert(r.instances.end(), {float(p.x), float(p.y), float(p.z), radius});
+    }
+    glUniform4fv(r.mesh.colour, 1, c.data());
+    glBindVertexArray(r.ball.vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r.ballInstances);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.instances.size() * sizeof(float)), r.instances.data(),
+                 GL_STREAM_DRAW);
+    glDrawArraysInstanced(GL_TRIANGLES, 0, r.ball.vertices, GLsizei(x.size()));
+}
+
+/// How far a body's shape reaches from its position, m (a sphere around it).
+double reach(const RigidBody& b) {
+    switch (b.shape) {
+    case ShapeKind::Plane:
+        return 0.0;
+    case ShapeKind::Sphere:
+        return b.radius;
+    case ShapeKind::Box:
+        return length(b.halfExtents);
+    case ShapeKind::Cylinder:
+    case ShapeKind::Capsule:
+        return std::hypot(b.radius, 0.5 * b.height) + b.radius;
+    case ShapeKind::Convex:
+    case ShapeKind::Mesh:
+        return std::max(length(b.mesh->lo), length(b.mesh->hi));
+    }
+    return 0.0;
+}
+
+double reach(const RigidBody2D& b) {
+    double r = 0.0;
+    switch (b.shape) {
+    case Shape2DKind::Box:
+        r = std::hypot(b.halfExtents[0], b.halfExtents[1]);
+        break;
+    case Shape2DKind::Circle:
+        r = b.radius;
+        break;
+    case Shape2DKind::Polygon:
+        for (const Vec2& v : b.vertices) {
+            r = std::max(r, std::hypot(v[0], v[1]));
+        }
+        break;
+    case Shape2DKind::Edge:
+        r = std::max(std::hypot(b.from[0], b.from[1]), std::hypot(b.to[0], b.to[1])) + kEdgeDrawnHalfWidth;
+        break;
+    }
+    return std::hypot(r, kSlabHalfDepth);
+}
+
+/// The box holding everything that casts a shadow (bodies but planes, spring networks); false when nothing.
+bool casterBounds(World& world, Vec3& lo, Vec3& hi) {
+    bool any = false;
+    auto grow = [&](const Vec3& p, double r) {
+        const Vec3 a{p.x - r, p.y - r, p.z - r}, b{p.x + r, p.y + r, p.z + r};
+        lo = any ? Vec3{std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)} : a;
+        hi = any ? Vec3{std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)} : b;
+        any = true;
+    };
+    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+        if (b.shape != ShapeKind::Plane) {
+            grow(b.position, reach(b));
+        }
+    });
+    world.view<const RigidBody2D, const Transform>().each(
+        [&](Entity, const RigidBody2D& b, const Transform& t) {
+            grow({b.position[0], b.position[1], t.position.z}, reach(b));
+        });
+    world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+        for (const Vec3& p : net.x) {
+            grow(p, std::max(0.04, net.thickness));
+        }
+    });
+    return any && isFinite(lo) && isFinite(hi);
+}
+
+constexpr int kShadowMapSize = 1024; ///< texels a side
+
+void makeShadowMap(Renderer& r) {
+    glGenTextures(1, &r.shadowMap);
+    glBindTexture(GL_TEXTURE_2D, r.shadowMap);
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_DEPTH_COMPONENT24, kShadowMapSize, kShadowMapSize);
+    // compared in the lookup, and filtered: each lookup is already a 2 x 2 percentage-closer filter
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glGenFramebuffers(1, &r.shadowFbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, r.shadowFbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, r.shadowMap, 0);
+    const GLenum none = GL_NONE;
+    glDrawBuffers(1, &none);
+    glReadBuffer(GL_NONE);
+    checkComplete(kShadowMapSize, kShadowMapSize, 1);
+}
+
+/// The key light's shadow map: what casts drawn from the light (travelling along `light`) with an
+/// orthographic projection over a box fitted to the casters' bounds. Returns the light's view-projection,
+/// or nothing when nothing casts.
+std::optional<Mat4> drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3& light,
+                                  WorkerPool& pool) {
+    Vec3 lo, hi;
+    if (!casterBounds(world, lo, hi)) {
+        return std::nullopt;
+    }
+    const Vec3 centre = (lo + hi) * 0.5;
+    const double radius = std::max(0.5 * length(hi - lo), 1e-3) * 1.02;
+    const Mat4 lightViewProjection =
+        multiply(orthographic(radius, 0.0, 4.0 * radius), lookAt(centre - light * (2.0 * radius), centre));
+    if (!r.shadowFbo) {
+        makeShadowMap(r);
+    }
+    // not bound for reading while it is drawn into (the last frame left it on unit 3)
+    glActiveTexture(GL_TEXTURE3);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    glActiveTexture(GL_TEXTURE0);
+    glBindFramebuffer(GL_FRAMEBUFFER, r.shadowFbo);
+    glViewport(0, 0, kShadowMapSize, kShadowMapSize);
+    glClear(GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    // depth pushed back by the surface's slope, so that a lit surface does not shadow itself
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(2.0f, 4.0f);
+    // the depth program stands in for the mesh program: the draws below set its matrices and nothing else
+    glUseProgram(r.depthProgram);
+    std::swap(r.mesh, r.depth);
+    glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
+    glUniformMatrix4fv(r.mesh.viewProjection, 1, GL_FALSE, lightViewProjection.data());
+    drawColliders(world, r, ctx.alpha, false);
+    std::size_t drawn = 0;
+    world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
+        const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions, pool);
+        if (net.triangles.empty()) {
+            drawBalls(r, net, x, palette(drawn));
+        } else {
+            drawSurface(net, x, r, palette(drawn), pool);
+        }
+        ++drawn;
+    });
+    std::swap(r.mesh, r.depth);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    return lightViewProjection;
+}
+
 } // namespace
 
 void renderWorld(World& world, const StepContext& ctx) {
@@ -705,21 +932,27 @@ void renderWorld(World& world, const StepContext& ctx) {
     if (output->width > 0 && output->height > 0 &&
         (output->width != r.target->width() || output->height != r.target->height())) {
         r.target.reset(); // a window resized: a new target of its size
-        r.target = std::make_unique<Framebuffer>(output->width, output->height);
+        r.target = std::make_unique<Framebuffer>(output->width, output->height, scene.renderSamples);
     }
+    WorkerPool& pool = poolOr(ctx.pool);
+    const auto& eyeAt = output->cameraSet ? output->eye : scene.cameraEye;
+    const auto& targetAt = output->cameraSet ? output->target : scene.cameraTarget;
+    const Vec3 eye{eyeAt[0], eyeAt[1], eyeAt[2]};
+    const Vec3 target{targetAt[0], targetAt[1], targetAt[2]};
+    Vec3 light = (target - eye) * 0.5 + Vec3{0.0, -1.0, 0.0} * length(target - eye);
+    if (scene.lightDirection) {
+        light = {(*scene.lightDirection)[0], (*scene.lightDirection)[1], (*scene.lightDirection)[2]};
+    }
+    light = light * (1.0 / length(light));
+    const std::optional<Mat4> lightViewProjection =
+        scene.renderShadows ? drawShadowMap(world, r, ctx, light, pool) : std::nullopt;
+
     r.target->bind();
     glClearColor(float(scene.background[0]), float(scene.background[1]), float(scene.background[2]), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
-
-    const auto& eyeAt = output->cameraSet ? output->eye : scene.cameraEye;
-    const auto& targetAt = output->cameraSet ? output->target : scene.cameraTarget;
-    const Vec3 eye{eyeAt[0], eyeAt[1], eyeAt[2]};
-    const Vec3 target{targetAt[0], targetAt[1], targetAt[2]};
     const Mat4 viewProjection = tumble::viewProjection(scene, output);
-    Vec3 light = (target - eye) * 0.5 + Vec3{0.0, -1.0, 0.0} * length(target - eye);
-    light = light * (1.0 / length(light));
 
     // lit meshes: colliders and cloth; attribute 2 (the per-instance offset and scale) is (0, 0, 0, 1) for
     // every draw that is not instanced
@@ -728,8 +961,16 @@ void renderWorld(World& world, const StepContext& ctx) {
     glUniformMatrix4fv(r.mesh.viewProjection, 1, GL_FALSE, viewProjection.data());
     glUniform3f(r.mesh.lightDir, float(light.x), float(light.y), float(light.z));
     glUniform3f(r.mesh.eye, float(eye.x), float(eye.y), float(eye.z));
+    // the shadow map on texture unit 3 (the smoke pass has 0 to 2)
+    glActiveTexture(GL_TEXTURE3);
+    glBindTexture(GL_TEXTURE_2D, lightViewProjection ? r.shadowMap : 0);
+    glActiveTexture(GL_TEXTURE0);
+    glUniform1i(r.shadow.map, 3);
+    glUniform1f(r.shadow.enabled, lightViewProjection ? 1.0f : 0.0f);
+    glUniform1f(r.shadow.texel, 1.0f / float(kShadowMapSize));
+    glUniformMatrix4fv(r.shadow.lightViewProjection, 1, GL_FALSE,
+                       (lightViewProjection ? *lightViewProjection : Mat4{}).data());
     drawColliders(world, r, ctx.alpha);
-    WorkerPool& pool = poolOr(ctx.pool);
     world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r, pool); });
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
@@ -780,17 +1021,7 @@ void renderWorld(World& world, const StepContext& ctx) {
         if (!net.triangles.empty()) {
             return; // a surface, or in wireframe its springs alone (balls would hide them)
         }
-        const float radius = float(std::max(0.04, net.thickness));
-        r.instances.clear();
-        for (const Vec3& x : drawnPositions(world, e, net, ctx.alpha, r.positions, pool)) {
-            r.instances.insert(r.instances.end(), {float(x.x), float(x.y), float(x.z), radius});
-        }
-        glUniform4fv(r.mesh.colour, 1, c.data());
-        glBindVertexArray(r.ball.vao);
-        glBindBuffer(GL_ARRAY_BUFFER, r.ballInstances);
-        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.instances.size() * sizeof(float)), r.instances.data(),
-                     GL_STREAM_DRAW);
-        glDrawArraysInstanced(GL_TRIANGLES, 0, r.ball.vertices, GLsizei(net.x.size()));
+        drawBalls(r, net, drawnPositions(world, e, net, ctx.alpha, r.positions, pool), c);
     });
 
     // smoke, marched up to the opaque scene and blended over it
@@ -893,7 +1124,7 @@ bool presentImage(World& world, int width, int height) {
     if (!r || !r->drawn) {
         return false;
     }
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->target->id());
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->target->resolved());
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
     const bool same = width == r->target->width() && height == r->target->height();
     glBlitFramebuffer(0, 0, r->target->width(), r->target->height(), 0, 0, width, height, GL_COLOR_BUFFER_BIT,

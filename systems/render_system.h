@@ -53,24 +53,35 @@ struct Renderer;
 /// An offscreen RGBA8 colour + depth framebuffer.
 class Framebuffer {
 public:
-    Framebuffer(int width, int height);
+    /// `samples` above 1: colour and depth multisampled (as many samples as asked, at most the GL's
+    /// GL_MAX_SAMPLES), resolved into a plain colour buffer whenever the image is read.
+    Framebuffer(int width, int height, int samples = 1);
     ~Framebuffer();
     Framebuffer(const Framebuffer&) = delete;
     Framebuffer& operator=(const Framebuffer&) = delete;
 
+    /// Binds it for drawing, with its viewport.
     void bind() const;
+    /// The framebuffer drawn into (multisampled when samples() > 1).
     unsigned id() const { return m_fbo; }
     int width() const { return m_width; }
     int height() const { return m_height; }
-    /// The pixels, RGBA, top row first.
+    int samples() const { return m_samples; }
+    /// A single-sampled framebuffer holding what was drawn: the multisampled one resolved into its own
+    /// colour buffer (each pixel the mean of its samples), or the one drawn into when it has one sample.
+    unsigned resolved() const;
+    /// The pixels, RGBA, top row first (resolved).
     void read(std::vector<std::uint8_t>& rgba) const;
 
 private:
     int m_width;
     int m_height;
+    int m_samples = 1;
     unsigned m_fbo = 0;
     unsigned m_color = 0;
     unsigned m_depth = 0;
+    unsigned m_resolveFbo = 0; ///< with samples() > 1: the resolved colour's framebuffer
+    unsigned m_resolveColor = 0;
 };
 
 /// Compiles and links a program; throws std::runtime_error with the GL log on failure.

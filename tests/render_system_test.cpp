@@ -78,8 +78,9 @@ TEST(RenderSystem, RedSphereCoversItsPredictedProjection) {
             const std::uint8_t* p = img.at(x, y);
             if (!isBackground(p)) {
                 ++covered;
-                // shaded red: green and blue stay zero however dark the side turned from the light is
-                red += p[1] == 0 && p[2] == 0;
+                // shaded red: green and blue stay zero however dark the side turned from the light is, but
+                // for the edge's pixels, which multisampling blends with the white behind (equal parts)
+                red += p[1] == p[2] && p[0] >= p[1];
                 bright += p[0] > 128;
             }
         }
@@ -92,6 +93,115 @@ TEST(RenderSystem, RedSphereCoversItsPredictedProjection) {
     EXPECT_NEAR(double(covered), predicted, 0.02 * predicted);
     EXPECT_EQ(red, covered) << "every covered pixel is a shade of red";
     EXPECT_GT(bright, covered / 3) << "the lit side is bright";
+}
+
+/// A scene's head: a camera `height` m above the origin looking straight down (fov 45 degrees), a white sky,
+/// the key light shining straight down, no gravity.
+std::string lookingDown(double height, int width, int heightPx, int msaa, bool shadows) {
+    return "[scene]\nname = \"down\"\ngravity = [0, 0, 0]\n[camera]\neye = [0.0, " + std::to_string(height) +
+           ", 0.0001]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 45.0\n[render]\nwidth = " + std::to_string(width) +
+           "\nheight = " + std::to_string(heightPx) +
+           "\nbackground = [1.0, 1.0, 1.0]\nlight_direction = [0.0, -1.0, 0.0]\nmsaa = " +
+           std::to_string(msaa) + "\nshadows = " + (shadows ? "true" : "false") + "\n";
+}
+
+/// A dark strip 2 cm wide (about two pixels) lying on a light floor, turned 10 degrees from the image's
+/// columns, seen from straight above, at `msaa` samples a pixel (no shadows: their soft edge would blend
+/// too).
+std::string stripScene(int msaa) {
+    return lookingDown(3.0, 320, 240, msaa, false) + R"(
+[[entity]]
+name = "floor"
+[entity.transform]
+position = [0.0, 0.2, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [3.0, 0.1, 3.0]
+color = [0.9, 0.9, 0.9]
+[[entity]]
+name = "strip"
+[entity.transform]
+position = [0.0, 0.31, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [0.01, 0.01, 1.0]
+orientation = [0.0, 0.0871557, 0.0, 0.9961947]
+color = [0.05, 0.05, 0.05]
+)";
+}
+
+TEST(RenderSystem, MultisamplingBlendsAThinLinesEdgesAndKeepsItsInk) {
+    // each row of the middle of the image crosses the strip: without multisampling every pixel is floor
+    // (about 252) or strip (about 14), nothing between; with 4 samples the pixels its edges cut are in
+    // between, and the strip's total darkness (its area) stays what it was
+    const auto measure = [](const Image& img, std::size_t& between, double& ink) {
+        between = 0;
+        ink = 0.0;
+        for (int y = img.height / 4; y < 3 * img.height / 4; ++y) {
+            for (int x = 0; x < img.width; ++x) {
+                const int l = img.at(x, y)[0];
+                between += l >= 60 && l <= 200;
+                ink += std::max(0, 252 - l);
+            }
+        }
+    };
+    std::size_t plainBetween = 0, smoothBetween = 0;
+    double plainInk = 0.0, smoothInk = 0.0;
+    measure(renderOnce(stripScene(1)), plainBetween, plainInk);
+    measure(renderOnce(stripScene(4)), smoothBetween, smoothInk);
+    const std::size_t rows = 240 / 2;
+    EXPECT_EQ(plainBetween, 0u) << "one sample a pixel: no pixel is partly strip";
+    EXPECT_GE(smoothBetween, rows) << "four samples: at least one blended pixel a row";
+    EXPECT_GT(plainInk, 0.0);
+    EXPECT_NEAR(smoothInk, plainInk, 0.1 * plainInk) << "blending moves the strip's ink, it does not lose it";
+}
+
+/// A 0.5 m square slab 3 m above a grey floor, lit from straight above, seen from 2 m above the floor
+/// looking straight down (the slab, above the camera, out of the picture).
+std::string slabScene(bool shadows, int msaa) {
+    return lookingDown(2.0, 640, 480, msaa, shadows) + R"(
+[[entity]]
+name = "floor"
+[entity.transform]
+position = [0.0, -0.1, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [5.0, 0.1, 5.0]
+color = [0.8, 0.8, 0.8]
+[[entity]]
+name = "slab"
+[entity.transform]
+position = [0.0, 3.0, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [0.25, 0.1, 0.25]
+color = [0.9, 0.2, 0.2]
+)";
+}
+
+TEST(RenderSystem, AShadowFromStraightAboveCoversTheFootprint) {
+    // the floor lit is 0.8 (0.35 + 0.75) 0.75 = 0.66 (168), in shadow 0.8 x 0.35 x 0.75 = 0.21 (54): a pixel
+    // under the midpoint is shadow. The slab's footprint, 0.5 m square 2 m from the camera, covers
+    // (0.5 f / 2)^2 pixels, f = H / (2 tan(fov / 2))
+    const double f = 480.0 / (2.0 * std::tan(45.0 * std::numbers::pi / 360.0));
+    const double footprint = std::pow(0.5 * f / 2.0, 2.0);
+    const auto shadowed = [](const Image& img) {
+        std::size_t n = 0;
+        for (int y = 0; y < img.height; ++y) {
+            for (int x = 0; x < img.width; ++x) {
+                n += img.at(x, y)[0] < 111;
+            }
+        }
+        return n;
+    };
+    for (const int msaa : {1, 4}) {
+        const Image lit = renderOnce(slabScene(true, msaa));
+        EXPECT_NEAR(double(shadowed(lit)), footprint, 0.05 * footprint) << msaa << " samples";
+        // and where it falls: centred under the slab
+        EXPECT_LT(lit.at(320, 240)[0], 70) << "the middle of the shadow";
+        EXPECT_GT(lit.at(20, 20)[0], 150) << "a corner of the floor, lit";
+        EXPECT_EQ(shadowed(renderOnce(slabScene(false, msaa))), 0u) << "shadows = false: none";
+    }
 }
 
 TEST(RenderSystem, AnObjectLeftOfTheTargetAppearsOnTheLeft) {

@@ -93,6 +93,12 @@ std::vector<BadCase> cases() {
          {},
          4,
          "'width' in [render] is 0, outside [16, 8192]"},
+        {"render_msaa_not_a_power_of_two",
+         kScene + "[render]\nmsaa = 3\n",
+         {},
+         4,
+         "'msaa' in [render] is the samples per pixel: 1 (none), 2, 4, 8 or 16, not 3"},
+        {"render_msaa_misspelt", kScene + "[render]\nmsa = 4\n", {}, 4, "did you mean 'msaa'"},
         {"budget_negative", kScene + "[budget]\nphysics_ms = -1\n", {}, 4, "'physics_ms' in [budget]"},
         {"entity_not_array", "entity = \"bob\"\n" + kScene, {}, 1, "'entity' must be an array of tables"},
         {"entity_without_name",
@@ -404,19 +410,19 @@ std::vector<BadCase> cases() {
          5,
          "entity 'sheet' [cloth] (160000 masses, 956002 springs, implicit) needs about 410.7 MiB, so the "
          "scene "
-         "would need about 431.7 MiB, above the memory cap of 100.0 MiB"},
+         "would need about 459.9 MiB, above the memory cap of 100.0 MiB"},
         {"memory_cap_scene_total",
          kScene + "[[entity]]\nname = \"a\"\n[entity.emitter]\nmax_particles = 1000000\n" +
              "[[entity]]\nname = \"b\"\n[entity.emitter]\nmax_particles = 1000000\n",
-         {"--memory-cap", "100"},
+         {"--memory-cap", "150"},
          10,
-         "entity 'b' [emitter] (1000000 particles) needs about 61.0 MiB, so the scene would need about 143.2 "
+         "entity 'b' [emitter] (1000000 particles) needs about 61.0 MiB, so the scene would need about 171.3 "
          "MiB"},
         {"memory_cap_render",
          kScene + "[render]\nwidth = 8192\nheight = 8192\n",
          {"--memory-cap", "1024"},
          3,
-         "[render] (8192 x 8192 frames) needs about 1.5 GiB"},
+         "[render] (8192 x 8192 frames) needs about 3.5 GiB"},
         // found measuring the loader: a 400x400 self-colliding sheet 1 m across took 9 GiB and ten minutes a
         // the set event: the same schema as --set, located at the event, and what a run cannot take
         {"set_event_misspelt_key",

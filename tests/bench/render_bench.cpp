@@ -1,7 +1,8 @@
 // Rendering the curtain demo at 1280 x 720 on this machine's GL (llvmpipe here): one frame drawn and read
 // back by the renderer, and, for the ratio, a raw EGL program drawing the same triangles (the cloth and
 // the ground) with the renderer's own shader and reading them back: the difference is the renderer's
-// work around the draw (normals, uploads, state), not its shading.
+// work around the draw (normals, uploads, state), not its shading. Then the curtain and avalanche frames
+// as the demos have them (shadows, 4x multisampling) against the same frames with both off.
 //   build/tests/bench/tumble_bench --benchmark_filter=Render --benchmark_repetitions=5
 
 #include "app/gl_context.h"
@@ -24,11 +25,11 @@
 namespace tumble {
 namespace {
 
-std::unique_ptr<Simulation> billowingCurtain(bool render) {
+std::unique_ptr<Simulation> settledDemo(bool render, const std::string& demo = "curtain",
+                                        const std::vector<std::string>& sets = {}) {
     const Catalog& catalog = bench::builtinCatalog();
-    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
-    auto sim =
-        std::make_unique<Simulation>(catalog, path, readScenarioFile(path), std::vector<std::string>{});
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/" + demo + ".toml";
+    auto sim = std::make_unique<Simulation>(catalog, path, readScenarioFile(path), sets);
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = render;
     out.openContext = openHeadlessContext;
@@ -39,23 +40,46 @@ std::unique_ptr<Simulation> billowingCurtain(bool render) {
     return sim;
 }
 
-void BM_RenderCurtainFrame(benchmark::State& state) {
-    auto sim = billowingCurtain(true);
+/// One frame of a demo after 60, drawn and read back, again and again.
+void renderFrames(benchmark::State& state, const std::string& demo, const std::vector<std::string>& sets) {
+    auto sim = settledDemo(true, demo, sets);
     StepContext ctx;
     std::vector<std::uint8_t> pixels;
     int w = 0, h = 0;
     for (auto _ : state) {
         renderWorld(sim->world(), ctx);
-        lastImage(sim->world(), w, h, pixels); // glReadPixels waits for the frame to be finished
+        lastImage(sim->world(), w, h, pixels);
         benchmark::DoNotOptimize(pixels.data());
     }
     state.counters["pixels"] = double(w) * double(h);
+}
+
+const std::vector<std::string> kPlain{"render.shadows=false", "render.msaa=1"};
+
+void BM_RenderCurtainShadowsMsaa(benchmark::State& state) {
+    renderFrames(state, "curtain", {});
+}
+BENCHMARK(BM_RenderCurtainShadowsMsaa)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+void BM_RenderAvalancheShadowsMsaa(benchmark::State& state) {
+    renderFrames(state, "avalanche", {});
+}
+BENCHMARK(BM_RenderAvalancheShadowsMsaa)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+void BM_RenderAvalanchePlain(benchmark::State& state) {
+    renderFrames(state, "avalanche", kPlain);
+}
+BENCHMARK(BM_RenderAvalanchePlain)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+// shadows and multisampling off, as the raw EGL program below draws it
+void BM_RenderCurtainFrame(benchmark::State& state) {
+    renderFrames(state, "curtain", kPlain);
 }
 BENCHMARK(BM_RenderCurtainFrame)->Unit(benchmark::kMillisecond)->Iterations(40);
 
 void BM_RawEglCurtainFrame(benchmark::State& state) {
     // the triangles the renderer draws: the cloth (with flat per-triangle normals) and a ground quad
-    auto sim = billowingCurtain(false);
+    auto sim = settledDemo(false);
     std::vector<float> vertices;
     sim->world().view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
         for (const auto& t : net.triangles) {
