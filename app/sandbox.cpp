@@ -262,7 +262,11 @@ std::string verifyReplay(const std::string& path, int threads) {
     std::string diverged;
     Source src = replaySource(path, true, threads > 0 ? threads : defaultThreadCount());
     src.diverged = &diverged;
-    runSession(builtinCatalog(), o, src);
+    const int code = runSession(builtinCatalog(), o, src);
+    if (diverged.empty() && code != 0) {
+        // not a divergence, but not every frame checked either (a failure or an interrupt stopped it)
+        diverged = "the replay's run stopped before its end (exit code " + std::to_string(code) + ")";
+    }
     return diverged;
 }
 

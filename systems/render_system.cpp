@@ -772,6 +772,8 @@ void drawLines(Renderer& r) {
 void drawBalls(Renderer& r, const SpringNetwork& net, const std::vector<Vec3>& x,
                const std::array<float, 4>& c) {
     const float radius = float(std::max(0.04, net.thickness));
+    const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
+    glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
     r.instances.clear();
     for (const Vec3& p : x) {
         r.instances.insert(r.instances.end(), {float(p.x), float(p.y), float(p.z), radius});
@@ -798,7 +800,9 @@ double reach(const RigidBody& b) {
         return std::hypot(b.radius, 0.5 * b.height) + b.radius;
     case ShapeKind::Convex:
     case ShapeKind::Mesh:
-        return std::max(length(b.mesh->lo), length(b.mesh->hi));
+        return length(Vec3{std::max(std::abs(b.mesh->lo.x), std::abs(b.mesh->hi.x)),
+                           std::max(std::abs(b.mesh->lo.y), std::abs(b.mesh->hi.y)),
+                           std::max(std::abs(b.mesh->lo.z), std::abs(b.mesh->hi.z))});
     }
     return 0.0;
 }
@@ -870,6 +874,7 @@ void makeShadowMap(Renderer& r) {
     glDrawBuffers(1, &none);
     glReadBuffer(GL_NONE);
     checkComplete(kShadowMapSize, kShadowMapSize, 1);
+    glBindTexture(GL_TEXTURE_2D, 0);
 }
 
 /// The key light's shadow map: what casts drawn from the light (travelling along `light`) with an

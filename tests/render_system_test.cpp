@@ -204,6 +204,38 @@ TEST(RenderSystem, AShadowFromStraightAboveCoversTheFootprint) {
     }
 }
 
+TEST(RenderSystem, ARopesMassesCastShadows) {
+    // a single pinned mass drawn as a ball of radius 0.25 m, 3 m up, above the camera; straight below it its
+    // shadow, a disc (the ball is a 12-sided sphere: 95% of the circle's area) of radius 0.25 f / 2 pixels.
+    // Caught the balls drawn into the shadow map with whatever model matrix the last draw left (none here)
+    const std::string scene = lookingDown(2.0, 640, 480, 1, true) + R"(
+[[entity]]
+name = "floor"
+[entity.transform]
+position = [0.0, -0.1, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [5.0, 0.1, 5.0]
+color = [0.8, 0.8, 0.8]
+[[entity]]
+name = "bob"
+[entity.springs]
+thickness = 0.25
+masses = [ { x = [0.0, 3.0, 0.0], m = 1.0, pinned = true }, { x = [0.001, 3.0, 0.0], m = 1.0, pinned = true } ]
+links = [ { a = 0, b = 1 } ]
+)";
+    const Image img = renderOnce(scene);
+    std::size_t shadowed = 0;
+    for (int y = 0; y < img.height; ++y) {
+        for (int x = 0; x < img.width; ++x) {
+            shadowed += img.at(x, y)[0] < 111;
+        }
+    }
+    const double f = 480.0 / (2.0 * std::tan(45.0 * std::numbers::pi / 360.0));
+    const double disc = std::numbers::pi * std::pow(0.25 * f / 2.0, 2.0);
+    EXPECT_NEAR(double(shadowed), disc, 0.1 * disc);
+}
+
 TEST(RenderSystem, AnObjectLeftOfTheTargetAppearsOnTheLeft) {
     for (double x : {-1.5, 1.5}) {
         const Image img = renderOnce(sphereAt(x, 0.5));

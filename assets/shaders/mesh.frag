@@ -16,16 +16,18 @@ uniform float uShadowTexel; // 1 / the shadow map's size
 out vec4 fragColor;
 
 // How much of the key light reaches this point: 1 lit, 0 in shadow; nine filtered lookups (each itself a
-// 2 x 2 comparison) around it soften the edge over about three texels. Outside the map: lit.
+// 2 x 2 comparison) around it soften the edge over about three texels. Beside the map: lit.
 float lightReaching() {
     if (uShadows <= 0.0) {
         return 1.0;
     }
     vec4 p = uLightViewProjection * vec4(vWorld, 1.0);
     vec3 q = p.xyz / p.w * 0.5 + 0.5;
-    if (q.x <= 0.0 || q.x >= 1.0 || q.y <= 0.0 || q.y >= 1.0 || q.z >= 1.0) {
+    if (q.x <= 0.0 || q.x >= 1.0 || q.y <= 0.0 || q.y >= 1.0) {
         return 1.0;
     }
+    // beyond the light box's far side (a ground far below the casters) the compared depth is clamped to 1,
+    // which every texel a caster covers is in front of: shadowed where a caster is, lit elsewhere
     // four filtered lookups half a texel either way: each compares 2 x 2 texels, together 3 x 3
     float z = q.z - 0.0005;
     vec2 d = vec2(0.5 * uShadowTexel);

@@ -89,8 +89,8 @@ private:
 
 /// Replays a replay file and compares every frame's state hash with the recording, as `tumble replay FILE
 /// --verify` does: returns an empty string when every frame matches, else what diverged first (frame,
-/// entity, kind of state), printing nothing. Throws ReplayError for a file that cannot be read. Runs on
-/// `threads` threads.
+/// entity, kind of state; or that its run stopped early), printing no verdict. Throws ReplayError for a
+/// file that cannot be read. Runs on `threads` threads.
 std::string verifyReplay(const std::string& path, int threads = 0);
 
 } // namespace tumble
