@@ -105,6 +105,18 @@ std::string lookingDown(double height, int width, int heightPx, int msaa, bool s
            std::to_string(msaa) + "\nshadows = " + (shadows ? "true" : "false") + "\n";
 }
 
+/// A grey floor, its top at y = 0, 10 m square.
+const char* kGreyFloor = R"(
+[[entity]]
+name = "floor"
+[entity.transform]
+position = [0.0, -0.1, 0.0]
+[entity.rigid_body]
+shape = "box"
+half_extents = [5.0, 0.1, 5.0]
+color = [0.8, 0.8, 0.8]
+)";
+
 /// A dark strip 2 cm wide (about two pixels) lying on a light floor, turned 10 degrees from the image's
 /// columns, seen from straight above, at `msaa` samples a pixel (no shadows: their soft edge would blend
 /// too).
@@ -159,15 +171,7 @@ TEST(RenderSystem, MultisamplingBlendsAThinLinesEdgesAndKeepsItsInk) {
 /// A 0.5 m square slab 3 m above a grey floor, lit from straight above, seen from 2 m above the floor
 /// looking straight down (the slab, above the camera, out of the picture).
 std::string slabScene(bool shadows, int msaa) {
-    return lookingDown(2.0, 640, 480, msaa, shadows) + R"(
-[[entity]]
-name = "floor"
-[entity.transform]
-position = [0.0, -0.1, 0.0]
-[entity.rigid_body]
-shape = "box"
-half_extents = [5.0, 0.1, 5.0]
-color = [0.8, 0.8, 0.8]
+    return lookingDown(2.0, 640, 480, msaa, shadows) + kGreyFloor + R"(
 [[entity]]
 name = "slab"
 [entity.transform]
@@ -208,15 +212,7 @@ TEST(RenderSystem, ARopesMassesCastShadows) {
     // a single pinned mass drawn as a ball of radius 0.25 m, 3 m up, above the camera; straight below it its
     // shadow, a disc (the ball is a 12-sided sphere: 95% of the circle's area) of radius 0.25 f / 2 pixels.
     // Caught the balls drawn into the shadow map with whatever model matrix the last draw left (none here)
-    const std::string scene = lookingDown(2.0, 640, 480, 1, true) + R"(
-[[entity]]
-name = "floor"
-[entity.transform]
-position = [0.0, -0.1, 0.0]
-[entity.rigid_body]
-shape = "box"
-half_extents = [5.0, 0.1, 5.0]
-color = [0.8, 0.8, 0.8]
+    const std::string scene = lookingDown(2.0, 640, 480, 1, true) + kGreyFloor + R"(
 [[entity]]
 name = "bob"
 [entity.springs]
