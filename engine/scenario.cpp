@@ -161,6 +161,9 @@ void readRender(const toml::table* t, const LoadContext& ctx, SceneDef& scene) {
                                std::to_string(scene.renderSamples));
         }
         scene.renderShadows = r.boolean("shadows", scene.renderShadows);
+        scene.renderSkyGradient = r.boolean("sky_gradient", scene.renderSkyGradient);
+        scene.renderHemisphere = r.boolean("hemisphere_ambient", scene.renderHemisphere);
+        scene.renderGamma = r.boolean("gamma", scene.renderGamma);
         if (t->contains("light_direction")) {
             const auto d = r.vector<3>("light_direction", {0.0, -1.0, 0.0}, -1e6, 1e6);
             const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);

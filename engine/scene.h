@@ -39,6 +39,9 @@ struct SceneDef {
     bool renderShadows = true; ///< [render] shadows: the key light's shadow map
     /// [render] light_direction: where the key light shines (unit); unset, from above and behind the camera
     std::optional<std::array<double, 3>> lightDirection;
+    bool renderSkyGradient = true; ///< [render] sky_gradient: the sky pales from the zenith to the horizon
+    bool renderHemisphere = true; ///< [render] hemisphere_ambient: ambient coloured by the sky and the ground
+    bool renderGamma = true;      ///< [render] gamma: lit in linear light, written as sRGB
     std::array<double, 3> background{0.62, 0.74, 0.86}; ///< RGB in [0, 1], the sky behind everything
 
     /// Simulated time of one frame, s.

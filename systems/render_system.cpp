@@ -13,6 +13,7 @@
 #include "engine/transform.h"
 #include "systems/render_air.h"
 
+#include <Eigen/Dense>
 #include <GLES3/gl3.h>
 #include <stb/stb_image_write.h>
 
@@ -244,6 +245,20 @@ std::string readText(const std::string& path) {
     return ss.str();
 }
 
+} // namespace
+
+std::string withLook(const std::string& file, const std::string& defines) {
+    const std::string shaders = assetDirectory() + "/shaders/";
+    const std::string source = readText(shaders + file), look = defines + readText(shaders + "look.glsl");
+    const std::size_t line = source.find('\n');
+    if (line == std::string::npos) {
+        return source + "\n" + look;
+    }
+    return source.substr(0, line + 1) + look + source.substr(line + 1);
+}
+
+namespace {
+
 /// A static mesh on the GPU: interleaved position and normal, drawn as triangles.
 struct Mesh {
     GLuint vao = 0, vbo = 0;
@@ -346,9 +361,18 @@ struct Renderer {
     std::unique_ptr<Framebuffer> target;
     GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
     GLuint depthProgram = 0; ///< mesh.vert with a fragment shader that writes nothing: the shadow map's pass
+    GLuint skyProgram = 0;   ///< the sky gradient, where nothing opaque was drawn
+    /// look.glsl's uniforms in the mesh and sky programs
+    struct LookUniforms {
+        GLint zenith = -1, horizon = -1, nadir = -1;
+    } meshLook, skyLook;
+    struct {
+        GLint inverseViewProjection = -1, eye = -1;
+    } sky;
     /// Uniform locations, looked up once when the programs are linked.
     struct MeshUniforms {
         GLint viewProjection = -1, model = -1, colour = -1, grid = -1, lightDir = -1, eye = -1;
+        GLint key = -1, skyLight = -1, groundLight = -1;
     } mesh;
     MeshUniforms depth; ///< the depth program's (only its matrices exist there: the others are -1)
     GLint flatViewProjection = -1;
@@ -358,22 +382,32 @@ struct Renderer {
     /// The key light's shadow map (made at the first frame that has a caster) and the mesh program's
     /// uniforms that read it.
     GLuint shadowFbo = 0, shadowMap = 0;
-    struct {
+    struct ShadowUniforms {
         GLint map = -1, lightViewProjection = -1, enabled = -1, texel = -1;
     } shadow;
+    /// mesh.frag compiled for water: its program and uniforms, swapped with the mesh program's to draw
+    struct LitProgram {
+        GLuint id = 0;
+        MeshUniforms mesh;
+        ShadowUniforms shadow;
+        LookUniforms look;
+    } water;
     Mesh sphere, cube, cylinder, plane;
     Mesh ball;                ///< a coarse sphere, drawn once per mass (instanced)
     GLuint ballInstances = 0; ///< per mass: offset and radius
     GLuint clothVao = 0, clothVbo = 0, flatVao = 0, flatVbo = 0;
-    GLuint particleVao = 0, particleVbo = 0;      ///< per particle: centre, colour, size (instanced quads)
-    std::vector<float> instances;                 ///< scratch: ball instances
-    std::vector<float> clothVertices;             ///< scratch: position + normal per corner
-    std::vector<Vec3> normals;                    ///< scratch: per-mass normals of a cloth
-    std::vector<Vec3> positions;                  ///< scratch: a network's masses between two steps
-    std::vector<FlatVertex> flat;                 ///< scratch: line vertices or particle instances
-    std::vector<std::uint8_t> pixels;             ///< the last image read back
+    GLuint skyVao = 0;                       ///< no attributes: the sky's triangle comes from gl_VertexID
+    GLuint particleVao = 0, particleVbo = 0; ///< per particle: centre, colour, size (instanced quads)
+    std::vector<float> instances;            ///< scratch: ball instances
+    std::vector<float> clothVertices;        ///< scratch: position + normal per corner
+    std::vector<Vec3> normals;               ///< scratch: per-mass normals of a cloth
+    std::vector<Vec3> positions;             ///< scratch: a network's masses between two steps
+    std::vector<FlatVertex> flat;            ///< scratch: line vertices or particle instances
+    std::vector<std::uint8_t> pixels;        ///< the last image read back
     std::map<const ShapeMesh*, Mesh> shapeMeshes; ///< convex hulls and meshes, uploaded once
     SmokePass smoke;                              ///< the air grids' smoke
+    bool gamma =
+        false; ///< lights in linear light (GAMMA compiled in): colours are decoded from sRGB when set
     bool drawn = false;
     bool live = false; ///< a context is current and the objects below were made in it
 
@@ -390,7 +424,8 @@ struct Renderer {
         smoke.release();
         glDeleteTextures(1, &shadowMap);
         glDeleteFramebuffers(1, &shadowFbo);
-        for (GLuint program : {meshProgram, flatProgram, particleProgram, depthProgram}) {
+        for (GLuint program :
+             {meshProgram, flatProgram, particleProgram, depthProgram, skyProgram, water.id}) {
             glDeleteProgram(program);
         }
         std::vector<Mesh> meshes{sphere, cube, cylinder, plane, ball};
@@ -401,7 +436,7 @@ struct Renderer {
             glDeleteBuffers(1, &m.vbo);
             glDeleteVertexArrays(1, &m.vao);
         }
-        for (GLuint vao : {clothVao, flatVao, particleVao}) {
+        for (GLuint vao : {clothVao, flatVao, particleVao, skyVao}) {
             glDeleteVertexArrays(1, &vao);
         }
         for (GLuint buffer : {ballInstances, clothVbo, flatVbo, particleVbo}) {
@@ -411,6 +446,44 @@ struct Renderer {
 };
 
 namespace {
+
+Renderer::LookUniforms lookUniforms(GLuint program) {
+    return {glGetUniformLocation(program, "uZenith"), glGetUniformLocation(program, "uHorizon"),
+            glGetUniformLocation(program, "uNadir")};
+}
+
+/// A program compiled from mesh.frag: its uniforms.
+Renderer::LitProgram litProgram(GLuint program) {
+    auto at = [&](const char* name) { return glGetUniformLocation(program, name); };
+    return {program,
+            {at("uViewProjection"), at("uModel"), at("uColor"), at("uGrid"), at("uLightDir"), at("uEye"),
+             at("uKey"), at("uSkyLight"), at("uGroundLight")},
+            {at("uShadowMap"), at("uLightViewProjection"), at("uShadows"), at("uShadowTexel")},
+            lookUniforms(program)};
+}
+
+/// Puts `other` in the mesh program's place (the draws use r.meshProgram's uniforms), and back again.
+void swapLit(Renderer& r, Renderer::LitProgram& other) {
+    std::swap(r.meshProgram, other.id);
+    std::swap(r.mesh, other.mesh);
+    std::swap(r.shadow, other.shadow);
+    std::swap(r.meshLook, other.look);
+}
+
+double srgbToLinear(double c) {
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+/// The mesh program's colour (given in sRGB), in the space this frame lights in.
+void setColour(const Renderer& r, const std::array<float, 4>& rgba) {
+    std::array<float, 4> c = rgba;
+    if (r.gamma) {
+        for (int k = 0; k < 3; ++k) {
+            c[k] = float(srgbToLinear(c[k]));
+        }
+    }
+    glUniform4fv(r.mesh.colour, 1, c.data());
+}
 
 void setupFlatAttributes() {
     glEnableVertexAttribArray(0);
@@ -442,7 +515,17 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
                                              output.height > 0 ? output.height : scene.renderHeight,
                                              scene.renderSamples);
     const std::string shaders = assetDirectory() + "/shaders/";
-    r.meshProgram = compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "mesh.frag"), "mesh");
+    // the look's switch is compiled in (see look.glsl): a renderer draws one scene's look
+    r.gamma = scene.renderGamma;
+    const std::string gamma = r.gamma ? "#define GAMMA\n" : "";
+    r.meshProgram = compileProgram(readText(shaders + "mesh.vert"), withLook("mesh.frag", gamma), "mesh");
+    r.water = litProgram(compileProgram(readText(shaders + "mesh.vert"),
+                                        withLook("mesh.frag", gamma + "#define WATER\n"), "water"));
+    r.skyProgram = compileProgram(withLook("sky.vert", gamma), readText(shaders + "sky.frag"), "sky");
+    r.skyLook = lookUniforms(r.skyProgram);
+    r.sky = {glGetUniformLocation(r.skyProgram, "uInverseViewProjection"),
+             glGetUniformLocation(r.skyProgram, "uEye")};
+    glGenVertexArrays(1, &r.skyVao);
     r.flatProgram = compileProgram(readText(shaders + "flat.vert"), readText(shaders + "flat.frag"), "flat");
     r.depthProgram =
         compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "depth.frag"), "depth");
@@ -467,14 +550,10 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     r.particleProgram =
         compileProgram(readText(shaders + "particle.vert"), readText(shaders + "particle.frag"), "particle");
     r.smoke.make(readText(shaders + "smoke.vert"), readText(shaders + "smoke.frag"));
-    r.mesh = {
-        glGetUniformLocation(r.meshProgram, "uViewProjection"), glGetUniformLocation(r.meshProgram, "uModel"),
-        glGetUniformLocation(r.meshProgram, "uColor"),          glGetUniformLocation(r.meshProgram, "uGrid"),
-        glGetUniformLocation(r.meshProgram, "uLightDir"),       glGetUniformLocation(r.meshProgram, "uEye")};
-    r.shadow = {glGetUniformLocation(r.meshProgram, "uShadowMap"),
-                glGetUniformLocation(r.meshProgram, "uLightViewProjection"),
-                glGetUniformLocation(r.meshProgram, "uShadows"),
-                glGetUniformLocation(r.meshProgram, "uShadowTexel")};
+    Renderer::LitProgram lit = litProgram(r.meshProgram);
+    r.mesh = lit.mesh;
+    r.shadow = lit.shadow;
+    r.meshLook = lit.look;
     r.flatViewProjection = glGetUniformLocation(r.flatProgram, "uViewProjection");
     r.particle = {glGetUniformLocation(r.particleProgram, "uViewProjection"),
                   glGetUniformLocation(r.particleProgram, "uRight"),
@@ -594,11 +673,10 @@ constexpr double kEdgeDrawnHalfWidth = 0.02;
 /// out (they cast no shadow).
 void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) {
     const GLint modelLoc = r.mesh.model;
-    const GLint colourLoc = r.mesh.colour;
     const GLint gridLoc = r.mesh.grid;
     auto draw = [&](const Mesh& m, const Mat4& transform, const std::array<float, 4>& colour, bool grid) {
         glUniformMatrix4fv(modelLoc, 1, GL_FALSE, transform.data());
-        glUniform4fv(colourLoc, 1, colour.data());
+        setColour(r, colour);
         glUniform1f(gridLoc, grid ? 1.0f : 0.0f);
         glBindVertexArray(m.vao);
         glDrawArrays(GL_TRIANGLES, 0, m.vertices);
@@ -686,7 +764,7 @@ void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) 
 void drawSurfaceVertices(Renderer& r, const std::array<float, 4>& colour) {
     const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
     glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
-    glUniform4fv(r.mesh.colour, 1, colour.data());
+    setColour(r, colour);
     glUniform1f(r.mesh.grid, 0.0f);
     glBindVertexArray(r.clothVao);
     glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
@@ -726,7 +804,8 @@ void drawWater(const Water& w, Renderer& r, WorkerPool& pool) {
                          }
                      }
                  });
-    drawSurfaceVertices(r, {0.20f, 0.45f, 0.75f, 1.0f});
+    // alpha: how much of what lies below the water's own colour covers, seen head on
+    drawSurfaceVertices(r, {0.20f, 0.45f, 0.75f, 0.45f});
 }
 
 /// A network with surface triangles (cloth, the outside of a soft body), lit, with smooth normals.
@@ -778,7 +857,7 @@ void drawBalls(Renderer& r, const SpringNetwork& net, const std::vector<Vec3>& x
     for (const Vec3& p : x) {
         r.instances.insert(r.instances.end(), {float(p.x), float(p.y), float(p.z), radius});
     }
-    glUniform4fv(r.mesh.colour, 1, c.data());
+    setColour(r, c);
     glBindVertexArray(r.ball.vao);
     glBindBuffer(GL_ARRAY_BUFFER, r.ballInstances);
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.instances.size() * sizeof(float)), r.instances.data(),
@@ -925,6 +1004,112 @@ std::optional<Mat4> drawShadowMap(World& world, Renderer& r, const StepContext& 
     return lightViewProjection;
 }
 
+/// The frame's look, from [render]'s switches and its background colour (the whole sky's colour without
+/// the gradient, else the hue the gradient is made from): the sky's colours and the light, in the space the
+/// shaders light in (linear with gamma).
+struct Look {
+    bool gamma = true;
+    Vec3 zenith, horizon, nadir;
+    float key = 0.75f; ///< the key light's strength
+    Vec3 skyLight, groundLight;
+};
+
+Look sceneLook(const SceneDef& scene) {
+    Look look;
+    look.gamma = scene.renderGamma;
+    auto lit = [&](const Vec3& c) {
+        return look.gamma ? Vec3{srgbToLinear(c.x), srgbToLinear(c.y), srgbToLinear(c.z)} : c;
+    };
+    const Vec3 b{scene.background[0], scene.background[1], scene.background[2]};
+    Vec3 zenith = b, horizon = b, nadir = b;
+    if (scene.renderSkyGradient) {
+        // overhead the background's hue deeper (its saturation 1.6 times, a little darker), at the horizon
+        // paler (a third of the way to white), below the horizon dark
+        const double grey = 0.3 * b.x + 0.59 * b.y + 0.11 * b.z;
+        const Vec3 deep = (Vec3{grey, grey, grey} + (b - Vec3{grey, grey, grey}) * 1.6) * 0.85;
+        zenith = {std::clamp(deep.x, 0.0, 1.0), std::clamp(deep.y, 0.0, 1.0), std::clamp(deep.z, 0.0, 1.0)};
+        horizon = b + (Vec3{1, 1, 1} - b) * 0.35;
+        nadir = b * 0.45;
+    }
+    look.zenith = lit(zenith);
+    look.horizon = lit(horizon);
+    look.nadir = lit(nadir);
+    look.key = look.gamma ? 1.0f : 0.75f;
+    if (scene.renderHemisphere) {
+        // from above the sky's colour, from below the light the ground throws back (a warm grey)
+        look.skyLight = lit(b) * 0.75;
+        look.groundLight = lit(Vec3{0.45, 0.42, 0.38}) * 0.5;
+    } else {
+        // grey, from above only
+        const double a = look.gamma ? 0.2 : 0.35;
+        look.skyLight = {a, a, a};
+        look.groundLight = {};
+    }
+    return look;
+}
+
+void setLook(const Renderer::LookUniforms& u, const Look& look) {
+    glUniform3f(u.zenith, float(look.zenith.x), float(look.zenith.y), float(look.zenith.z));
+    glUniform3f(u.horizon, float(look.horizon.x), float(look.horizon.y), float(look.horizon.z));
+    glUniform3f(u.nadir, float(look.nadir.x), float(look.nadir.y), float(look.nadir.z));
+}
+
+/// The mesh program's uniforms for this frame: the camera, the light, the look, the shadow map.
+void setMeshFrame(Renderer& r, const Look& look, const Mat4& viewProjection, const Vec3& eye,
+                  const Vec3& light, const std::optional<Mat4>& lightViewProjection) {
+    glUseProgram(r.meshProgram);
+    glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
+    glUniformMatrix4fv(r.mesh.viewProjection, 1, GL_FALSE, viewProjection.data());
+    glUniform3f(r.mesh.lightDir, float(light.x), float(light.y), float(light.z));
+    glUniform3f(r.mesh.eye, float(eye.x), float(eye.y), float(eye.z));
+    glUniform1f(r.mesh.key, look.key);
+    glUniform3f(r.mesh.skyLight, float(look.skyLight.x), float(look.skyLight.y), float(look.skyLight.z));
+    glUniform3f(r.mesh.groundLight, float(look.groundLight.x), float(look.groundLight.y),
+                float(look.groundLight.z));
+    setLook(r.meshLook, look);
+    // the shadow map on texture unit 3 (the smoke pass has 0 to 2)
+    glActiveTexture(GL_TEXTURE3);
+    glBindTexture(GL_TEXTURE_2D, lightViewProjection ? r.shadowMap : 0);
+    glActiveTexture(GL_TEXTURE0);
+    glUniform1i(r.shadow.map, 3);
+    glUniform1f(r.shadow.enabled, lightViewProjection ? 1.0f : 0.0f);
+    glUniform1f(r.shadow.texel, 1.0f / float(kShadowMapSize));
+    glUniformMatrix4fv(r.shadow.lightViewProjection, 1, GL_FALSE,
+                       (lightViewProjection ? *lightViewProjection : Mat4{}).data());
+}
+
+constexpr GLsizei kSkyCells = 16 * 64; ///< sky.vert's grid
+
+/// The sky gradient over every pixel the opaque scene left empty (at the far plane, behind everything).
+void drawSky(Renderer& r, const Look& look, const Mat4& viewProjection, const Vec3& eye) {
+    glUseProgram(r.skyProgram);
+    setLook(r.skyLook, look);
+    const Eigen::Matrix4f inverse = Eigen::Map<const Eigen::Matrix4f>(viewProjection.data()).inverse();
+    glUniformMatrix4fv(r.sky.inverseViewProjection, 1, GL_FALSE, inverse.data());
+    glUniform3f(r.sky.eye, float(eye.x), float(eye.y), float(eye.z));
+    glDepthFunc(GL_LEQUAL);
+    glDepthMask(GL_FALSE);
+    glBindVertexArray(r.skyVao);
+    glDrawArrays(GL_TRIANGLES, 0, 6 * kSkyCells);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_LESS);
+}
+
+/// Water, see-through: after everything opaque and the sky, blended over them (mesh.frag's water()).
+void drawWaters(World& world, Renderer& r, WorkerPool& pool, const Look& look, const Mat4& viewProjection,
+                const Vec3& eye, const Vec3& light, const std::optional<Mat4>& lightViewProjection) {
+    if (world.view<const Water>().count() == 0) {
+        return;
+    }
+    swapLit(r, r.water);
+    setMeshFrame(r, look, viewProjection, eye, light, lightViewProjection);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r, pool); });
+    glDisable(GL_BLEND);
+    swapLit(r, r.water);
+}
+
 } // namespace
 
 void renderWorld(World& world, const StepContext& ctx) {
@@ -961,22 +1146,9 @@ void renderWorld(World& world, const StepContext& ctx) {
 
     // lit meshes: colliders and cloth; attribute 2 (the per-instance offset and scale) is (0, 0, 0, 1) for
     // every draw that is not instanced
-    glUseProgram(r.meshProgram);
-    glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
-    glUniformMatrix4fv(r.mesh.viewProjection, 1, GL_FALSE, viewProjection.data());
-    glUniform3f(r.mesh.lightDir, float(light.x), float(light.y), float(light.z));
-    glUniform3f(r.mesh.eye, float(eye.x), float(eye.y), float(eye.z));
-    // the shadow map on texture unit 3 (the smoke pass has 0 to 2)
-    glActiveTexture(GL_TEXTURE3);
-    glBindTexture(GL_TEXTURE_2D, lightViewProjection ? r.shadowMap : 0);
-    glActiveTexture(GL_TEXTURE0);
-    glUniform1i(r.shadow.map, 3);
-    glUniform1f(r.shadow.enabled, lightViewProjection ? 1.0f : 0.0f);
-    glUniform1f(r.shadow.texel, 1.0f / float(kShadowMapSize));
-    glUniformMatrix4fv(r.shadow.lightViewProjection, 1, GL_FALSE,
-                       (lightViewProjection ? *lightViewProjection : Mat4{}).data());
+    const Look look = sceneLook(scene);
+    setMeshFrame(r, look, viewProjection, eye, light, lightViewProjection);
     drawColliders(world, r, ctx.alpha);
-    world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r, pool); });
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         if (!net.triangles.empty() && !output->wireframe) {
@@ -1028,6 +1200,10 @@ void renderWorld(World& world, const StepContext& ctx) {
         }
         drawBalls(r, net, drawnPositions(world, e, net, ctx.alpha, r.positions, pool), c);
     });
+    if (scene.renderSkyGradient) {
+        drawSky(r, look, viewProjection, eye);
+    }
+    drawWaters(world, r, pool, look, viewProjection, eye, light, lightViewProjection);
 
     // smoke, marched up to the opaque scene and blended over it
     drawSmoke(world, r.smoke,

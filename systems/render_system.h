@@ -11,8 +11,10 @@
 // half a metre deep about their entity's z; hulls and meshes flat-shaded), cloth and soft bodies as
 // lit surfaces with per-vertex normals (cloth two-sided), other spring networks (springs, ropes) as lines
 // with their masses as small lit balls (instanced), and particles as round, blended camera-facing quads
-// (instanced) sized in metres and coloured over their life. The key light comes from above and behind the
-// camera; a soft sky light and a darkening near the ground stand in for shadows.
+// (instanced) sized in metres and coloured over their life; water see-through after everything opaque and
+// the sky gradient. The key light (from above and behind the camera unless [render] light_direction says)
+// casts shadows through a shadow map; ambient light comes from the sky and the ground (a hemisphere);
+// colours are lit in linear light and written as sRGB ([render] gamma).
 
 #include "engine/catalog.h"
 #include "engine/render_output.h"
@@ -87,6 +89,11 @@ private:
 /// Compiles and links a program; throws std::runtime_error with the GL log on failure.
 unsigned compileProgram(const std::string& vertexSource, const std::string& fragmentSource,
                         const std::string& name);
+
+/// The shader assets/shaders/`file` with `defines` (lines of #define: GAMMA, WATER) and look.glsl (colour
+/// spaces, the sky) put in after its #version line, as the mesh program's fragment shader and the sky's
+/// vertex shader take it.
+std::string withLook(const std::string& file, const std::string& defines = "");
 
 /// Writes RGBA pixels (top row first) as a PNG; throws std::runtime_error on failure.
 void writePng(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba);

@@ -9,6 +9,7 @@
 #include "engine/render_output.h"
 #include "engine/simulation.h"
 #include "systems/render_system.h"
+#include "tests/render_support.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -22,29 +23,14 @@
 namespace tumble {
 namespace {
 
-struct Image {
-    int width = 0, height = 0;
-    std::vector<std::uint8_t> rgba;
-    const std::uint8_t* at(int x, int y) const {
-        return &rgba[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 4];
-    }
-};
+using test::Image;
+using test::renderOnce;
 
-/// Renders one frame of a scenario in this process and returns the image.
-Image renderOnce(const std::string& text) {
-    auto sim = test::makeSimulation(text);
-    RenderOutput& out = sim->world().setResource<RenderOutput>();
-    out.enabled = true;
-    out.openContext = openHeadlessContext;
-    out.directory = test::tempPath("render");
-    out.lastFrame = 0; // no PNG
-    sim->runFrame();
-    Image img;
-    EXPECT_TRUE(lastImage(sim->world(), img.width, img.height, img.rgba));
-    return img;
-}
+/// The plain look: a flat sky of the background's colour, grey ambient light from above, colours lit and
+/// written as given; the shades the tests below work out are of this look.
+const std::string kPlainLook = "sky_gradient = false\nhemisphere_ambient = false\ngamma = false\n";
 
-const char* kCamera = R"(
+const std::string kCamera = R"(
 [scene]
 name = "view"
 gravity = [0, 0, 0]
@@ -56,7 +42,7 @@ fov_deg = 45.0
 width = 640
 height = 480
 background = [1.0, 1.0, 1.0]
-)";
+)" + kPlainLook;
 
 std::string sphereAt(double x, double radius) {
     return std::string(kCamera) + "[[entity]]\nname = \"ball\"\n[entity.transform]\nposition = [" +
@@ -102,7 +88,7 @@ std::string lookingDown(double height, int width, int heightPx, int msaa, bool s
            ", 0.0001]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 45.0\n[render]\nwidth = " + std::to_string(width) +
            "\nheight = " + std::to_string(heightPx) +
            "\nbackground = [1.0, 1.0, 1.0]\nlight_direction = [0.0, -1.0, 0.0]\nmsaa = " +
-           std::to_string(msaa) + "\nshadows = " + (shadows ? "true" : "false") + "\n";
+           std::to_string(msaa) + "\nshadows = " + (shadows ? "true" : "false") + "\n" + kPlainLook;
 }
 
 /// A grey floor, its top at y = 0, 10 m square.
@@ -495,6 +481,8 @@ fov_deg = 45.0
 width = 640
 height = 480
 background = [0.0, 0.0, 0.0]
+)" + kPlainLook +
+           R"(
 [[entity]]
 name = "room"
 [entity.air]

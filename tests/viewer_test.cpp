@@ -288,9 +288,8 @@ TEST(ViewerRenders, DragOnAClothIsRecordedAndTheReplayVerifiesHeadlessly) {
     EXPECT_GT(dark, panel / 3) << "no overlay panel at the top left";
     EXPECT_GT(text, 100) << "no overlay text";
     const int region = (960 - 320) * 640;
-    const int sky = count(320, 0, 960, 640, [](int r, int g, int b) {
-        return std::abs(r - 158) < 12 && std::abs(g - 189) < 12 && std::abs(b - 219) < 12;
-    });
+    // the sky: the background's blue, paler towards the horizon (the grey floor and the red cloth are not)
+    const int sky = count(320, 0, 960, 640, [](int r, int g, int b) { return b > r + 25 && b > g; });
     const int red = count(320, 0, 960, 640, [](int r, int g, int b) { return r > g + 30 && r > b + 30; });
     EXPECT_GT(sky, region / 4) << "no sky";
     EXPECT_GT(red, 2000) << "no cloth";

@@ -1,13 +1,19 @@
 #version 300 es
-// One key light, which casts shadows (a shadow map, percentage-closer filtered), soft ambient from the
-// sky, two-sided (cloth shows both faces), and a darkening near the ground for contact.
-precision highp float;
+// One key light, which casts shadows (a shadow map, percentage-closer filtered), ambient light from the sky
+// above and the ground below (a hemisphere), two-sided (cloth shows both faces), and a darkening near the
+// ground for contact. A ground plane carries a grid. Compiled with WATER defined, it draws water:
+// see-through, reflecting the sky by Fresnel (a program of its own, not a uniform: a CPU rasteriser pays
+// for both sides of a branch on a uniform). look.glsl (put in after the #version line) gives the colour
+// spaces and the sky.
 precision highp sampler2DShadow;
 in vec3 vNormal;
 in vec3 vWorld;
-uniform vec4 uColor;
+uniform vec4 uColor;         // in the space lighting is done in (linear with gamma: decoded before it is set)
 uniform vec3 uLightDir;
-uniform float uGrid;
+uniform float uKey;          // the key light's strength
+uniform vec3 uSkyLight;      // ambient from straight above (a surface facing up gets all of it)
+uniform vec3 uGroundLight;   // ambient from straight below
+uniform float uGrid;         // 1: a ground plane, with a grid
 uniform vec3 uEye;
 uniform sampler2DShadow uShadowMap;
 uniform mat4 uLightViewProjection;
@@ -15,8 +21,8 @@ uniform float uShadows;     // 1: the shadow map holds this frame's casters
 uniform float uShadowTexel; // 1 / the shadow map's size
 out vec4 fragColor;
 
-// How much of the key light reaches this point: 1 lit, 0 in shadow; nine filtered lookups (each itself a
-// 2 x 2 comparison) around it soften the edge over about three texels. Beside the map: lit.
+// How much of the key light reaches this point: 1 lit, 0 in shadow; four filtered lookups half a texel
+// either way (each itself a 2 x 2 comparison: together 3 x 3 texels) soften the edge. Beside the map: lit.
 float lightReaching() {
     if (uShadows <= 0.0) {
         return 1.0;
@@ -28,7 +34,6 @@ float lightReaching() {
     }
     // beyond the light box's far side (a ground far below the casters) the compared depth is clamped to 1,
     // which every texel a caster covers is in front of: shadowed where a caster is, lit elsewhere
-    // four filtered lookups half a texel either way: each compares 2 x 2 texels, together 3 x 3
     float z = q.z - 0.0005;
     vec2 d = vec2(0.5 * uShadowTexel);
     return 0.25 * (texture(uShadowMap, vec3(q.xy + vec2(-d.x, -d.y), z)) +
@@ -37,6 +42,35 @@ float lightReaching() {
                    texture(uShadowMap, vec3(q.xy + vec2(d.x, d.y), z)));
 }
 
+// How much of this pixel the grid's lines cover: lines 4 cm wide every metre along x and along z, each
+// averaged over the pixel's footprint (fwidth: metres a pixel). A line thinner than a pixel is drawn a
+// pixel wide and as much fainter, and as the footprint grows towards half a metre the lines fade into
+// their average cover, so that far away they neither break into a moire nor vanish.
+float gridCover(vec2 p) {
+    const float halfWidth = 0.02;
+    vec2 w = max(fwidth(p), vec2(1e-6));
+    vec2 drawn = max(vec2(halfWidth), 0.5 * w);
+    vec2 d = abs(fract(p + 0.5) - 0.5); // to the nearest line
+    vec2 cover = clamp((drawn - d) / w + 0.5, 0.0, 1.0) * (halfWidth / drawn);
+    cover = mix(cover, vec2(2.0 * halfWidth), smoothstep(0.15, 0.5, w));
+    return cover.x + cover.y - cover.x * cover.y;
+}
+
+#ifdef WATER
+// Water: the sky reflected by Schlick's Fresnel term (2% head on, all of it at grazing angles), the
+// water's own colour (lit) covering uColor.a of what lies below when seen head on, and the sun's glint.
+vec4 water(vec3 n, vec3 lit, float reaching) {
+    vec3 v = normalize(uEye - vWorld);
+    float fresnel = 0.02 + 0.98 * pow(1.0 - clamp(dot(n, v), 0.0, 1.0), 5.0);
+    vec3 r = reflect(-v, n);
+    float glint = uKey * reaching * pow(max(dot(r, -uLightDir), 0.0), 400.0);
+    float body = (1.0 - fresnel) * uColor.a;
+    float alpha = clamp(fresnel + body + glint, 0.0, 1.0);
+    vec3 colour = fresnel * skyColour(r) + body * lit + vec3(glint);
+    return vec4(encode(colour / max(alpha, 1e-3)), alpha);
+}
+#endif
+
 void main() {
     // the side that faces the camera is the lit one, whatever the winding (two-sided cloth)
     vec3 n = normalize(vNormal);
@@ -44,18 +78,24 @@ void main() {
         n = -n;
     }
     float diffuse = max(dot(n, -uLightDir), 0.0);
+    float reaching = 1.0;
+#ifdef WATER
+    reaching = lightReaching(); // the glint too
+#else
     if (diffuse > 0.0) {
-        diffuse *= lightReaching();
+        reaching = lightReaching();
     }
-    float sky = 0.5 + 0.5 * n.y;
+#endif
     vec3 base = uColor.rgb;
     if (uGrid > 0.0) {
-        // a ground grid: one line every metre
-        vec2 cell = abs(fract(vWorld.xz) - 0.5);
-        float line = step(0.48, max(cell.x, cell.y));
-        base = mix(base, base * 0.7, line);
+        base *= 1.0 - 0.3 * gridCover(vWorld.xz);
     }
-    float contact = mix(0.75, 1.0, clamp(vWorld.y * 4.0, 0.0, 1.0));
-    vec3 lit = base * (0.35 * sky + 0.75 * diffuse) * (uGrid > 0.0 ? 1.0 : contact);
-    fragColor = vec4(lit, uColor.a);
+    float contact = uGrid > 0.0 ? 1.0 : mix(0.75, 1.0, clamp(vWorld.y * 4.0, 0.0, 1.0));
+    vec3 ambient = mix(uGroundLight, uSkyLight, 0.5 + 0.5 * n.y);
+    vec3 lit = base * (ambient + uKey * diffuse * reaching) * contact;
+#ifdef WATER
+    fragColor = water(n, lit, reaching);
+#else
+    fragColor = vec4(encode(lit), uColor.a);
+#endif
 }

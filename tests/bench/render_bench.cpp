@@ -106,7 +106,7 @@ void BM_RawEglCurtainFrame(benchmark::State& state) {
     };
     const std::string shaders = assetDirectory() + "/shaders/";
     const unsigned program =
-        compileProgram(readText(shaders + "mesh.vert"), readText(shaders + "mesh.frag"), "mesh");
+        compileProgram(readText(shaders + "mesh.vert"), withLook("mesh.frag", "#define GAMMA\n"), "mesh");
     GLuint vao = 0, vbo = 0;
     glGenVertexArrays(1, &vao);
     glGenBuffers(1, &vbo);
@@ -125,6 +125,8 @@ void BM_RawEglCurtainFrame(benchmark::State& state) {
     glUniform3f(glGetUniformLocation(program, "uLightDir"), 0.0f, -0.8f, -0.6f);
     glUniform3f(glGetUniformLocation(program, "uEye"), 1.8f, 1.2f, 4.5f);
     glUniform4f(glGetUniformLocation(program, "uColor"), 0.8f, 0.3f, 0.25f, 1.0f);
+    glUniform1f(glGetUniformLocation(program, "uKey"), 1.0f);
+    glUniform3f(glGetUniformLocation(program, "uSkyLight"), 0.3f, 0.4f, 0.55f);
     const GLsizei clothVertices = GLsizei(vertices.size() / 6) - 6;
     std::vector<std::uint8_t> pixels;
     for (auto _ : state) {

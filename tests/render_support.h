@@ -1,0 +1,49 @@
+// Rendering a scenario in this process on the real EGL context, for the tests on pixels.
+#pragma once
+
+#include "app/gl_context.h"
+#include "engine/render_output.h"
+#include "engine/simulation.h"
+#include "systems/render_system.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace tumble::test {
+
+/// An image read back: RGBA, top row first.
+struct Image {
+    int width = 0, height = 0;
+    std::vector<std::uint8_t> rgba;
+    const std::uint8_t* at(int x, int y) const {
+        return &rgba[(std::size_t(y) * std::size_t(width) + std::size_t(x)) * 4];
+    }
+};
+
+/// Renders one frame of a scenario in this process and returns the image.
+inline Image renderOnce(const std::string& text) {
+    auto sim = makeSimulation(text);
+    RenderOutput& out = sim->world().setResource<RenderOutput>();
+    out.enabled = true;
+    out.openContext = openHeadlessContext;
+    out.directory = tempPath("render");
+    out.lastFrame = 0; // no PNG
+    sim->runFrame();
+    Image img;
+    EXPECT_TRUE(lastImage(sim->world(), img.width, img.height, img.rgba));
+    return img;
+}
+
+/// A scenario's static box entity: TOML arrays for its centre, half extents and colour.
+inline std::string boxEntity(const std::string& name, const std::string& position,
+                             const std::string& halfExtents, const std::string& colour) {
+    return "\n[[entity]]\nname = \"" + name + "\"\n[entity.transform]\nposition = " + position +
+           "\n[entity.rigid_body]\nshape = \"box\"\nhalf_extents = " + halfExtents + "\ncolor = " + colour +
+           "\n";
+}
+
+} // namespace tumble::test
