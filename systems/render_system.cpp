@@ -203,11 +203,14 @@ Mat4 perspective(double fovDeg, double aspect, double nearPlane, double farPlane
 }
 
 /// An orthographic projection of the box [-half, half]^2 x [near, far] in front of the eye.
-Mat4 orthographic(double half, double nearPlane, double farPlane) {
+/// An orthographic projection of the box [x0, x1] x [y0, y1] x [-far, -near] of the view's frame.
+Mat4 orthographic(double x0, double x1, double y0, double y1, double nearPlane, double farPlane) {
     Mat4 m{};
-    m[0] = float(1.0 / half);
-    m[5] = float(1.0 / half);
+    m[0] = float(2.0 / (x1 - x0));
+    m[5] = float(2.0 / (y1 - y0));
     m[10] = float(-2.0 / (farPlane - nearPlane));
+    m[12] = float(-(x1 + x0) / (x1 - x0));
+    m[13] = float(-(y1 + y0) / (y1 - y0));
     m[14] = float(-(farPlane + nearPlane) / (farPlane - nearPlane));
     m[15] = 1.0f;
     return m;
@@ -247,14 +250,17 @@ std::string readText(const std::string& path) {
 
 } // namespace
 
-std::string withLook(const std::string& file, const std::string& defines) {
-    const std::string shaders = assetDirectory() + "/shaders/";
-    const std::string source = readText(shaders + file), look = defines + readText(shaders + "look.glsl");
+std::string withDefines(const std::string& file, const std::string& text) {
+    const std::string source = readText(assetDirectory() + "/shaders/" + file);
     const std::size_t line = source.find('\n');
     if (line == std::string::npos) {
-        return source + "\n" + look;
+        return source + "\n" + text;
     }
-    return source.substr(0, line + 1) + look + source.substr(line + 1);
+    return source.substr(0, line + 1) + text + source.substr(line + 1);
+}
+
+std::string withLook(const std::string& file, const std::string& defines) {
+    return withDefines(file, defines + readText(assetDirectory() + "/shaders/look.glsl"));
 }
 
 namespace {
@@ -383,7 +389,7 @@ struct Renderer {
     /// uniforms that read it.
     GLuint shadowFbo = 0, shadowMap = 0;
     struct ShadowUniforms {
-        GLint map = -1, lightViewProjection = -1, enabled = -1, texel = -1;
+        GLint map = -1, lightViewProjection = -1;
     } shadow;
     /// mesh.frag compiled for water: its program and uniforms, swapped with the mesh program's to draw
     struct LitProgram {
@@ -458,7 +464,7 @@ Renderer::LitProgram litProgram(GLuint program) {
     return {program,
             {at("uViewProjection"), at("uModel"), at("uColor"), at("uGrid"), at("uLightDir"), at("uEye"),
              at("uKey"), at("uSkyLight"), at("uGroundLight")},
-            {at("uShadowMap"), at("uLightViewProjection"), at("uShadows"), at("uShadowTexel")},
+            {at("uShadowMap"), at("uLightViewProjection")},
             lookUniforms(program)};
 }
 
@@ -518,9 +524,11 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     // the look's switch is compiled in (see look.glsl): a renderer draws one scene's look
     r.gamma = scene.renderGamma;
     const std::string gamma = r.gamma ? "#define GAMMA\n" : "";
-    r.meshProgram = compileProgram(readText(shaders + "mesh.vert"), withLook("mesh.frag", gamma), "mesh");
-    r.water = litProgram(compileProgram(readText(shaders + "mesh.vert"),
-                                        withLook("mesh.frag", gamma + "#define WATER\n"), "water"));
+    const std::string shadows = scene.renderShadows ? "#define SHADOWS\n" : "";
+    const std::string vertex = withDefines("mesh.vert", shadows);
+    r.meshProgram = compileProgram(vertex, withLook("mesh.frag", gamma + shadows), "mesh");
+    r.water = litProgram(
+        compileProgram(vertex, withLook("mesh.frag", gamma + shadows + "#define WATER\n"), "water"));
     r.skyProgram = compileProgram(withLook("sky.vert", gamma), readText(shaders + "sky.frag"), "sky");
     r.skyLook = lookUniforms(r.skyProgram);
     r.sky = {glGetUniformLocation(r.skyProgram, "uInverseViewProjection"),
@@ -956,19 +964,33 @@ void makeShadowMap(Renderer& r) {
     glBindTexture(GL_TEXTURE_2D, 0);
 }
 
-/// The key light's shadow map: what casts drawn from the light (travelling along `light`) with an
-/// orthographic projection over a box fitted to the casters' bounds. Returns the light's view-projection,
-/// or nothing when nothing casts.
-std::optional<Mat4> drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3& light,
-                                  WorkerPool& pool) {
-    Vec3 lo, hi;
-    if (!casterBounds(world, lo, hi)) {
-        return std::nullopt;
-    }
+/// The key light's view and orthographic projection fitted to the casters' box [lo, hi]: across the light,
+/// the extent of the box's corners (2% more each side, so that the map's edge texels stay clear: beside
+/// the map a lookup reads them); along it, their depth range (the same margin).
+Mat4 lightProjection(const Vec3& lo, const Vec3& hi, const Vec3& light) {
     const Vec3 centre = (lo + hi) * 0.5;
-    const double radius = std::max(0.5 * length(hi - lo), 1e-3) * 1.02;
-    const Mat4 lightViewProjection =
-        multiply(orthographic(radius, 0.0, 4.0 * radius), lookAt(centre - light * (2.0 * radius), centre));
+    const double radius = std::max(0.5 * length(hi - lo), 1e-3);
+    const Mat4 view = lookAt(centre - light * (2.0 * radius), centre);
+    Vec3 a{1e300, 1e300, 1e300}, b{-1e300, -1e300, -1e300};
+    for (int corner = 0; corner < 8; ++corner) {
+        const Vec3 p{corner & 1 ? hi.x : lo.x, corner & 2 ? hi.y : lo.y, corner & 4 ? hi.z : lo.z};
+        const Vec3 q{view[0] * p.x + view[4] * p.y + view[8] * p.z + view[12],
+                     view[1] * p.x + view[5] * p.y + view[9] * p.z + view[13],
+                     view[2] * p.x + view[6] * p.y + view[10] * p.z + view[14]};
+        a = {std::min(a.x, q.x), std::min(a.y, q.y), std::min(a.z, q.z)};
+        b = {std::max(b.x, q.x), std::max(b.y, q.y), std::max(b.z, q.z)};
+    }
+    const Vec3 margin = (b - a) * 0.02 + Vec3{1e-3, 1e-3, 1e-3};
+    a = a - margin;
+    b = b + margin;
+    // the view looks down -z: the near plane at -b.z, the far at -a.z
+    return multiply(orthographic(a.x, b.x, a.y, b.y, -b.z, -a.z), view);
+}
+
+/// The key light's shadow map: what casts drawn from the light (travelling along `light`) with an
+/// orthographic projection over a box fitted to the casters' bounds. Returns the light's view-projection
+/// (when nothing casts, the map is left clear).
+Mat4 drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3& light, WorkerPool& pool) {
     if (!r.shadowFbo) {
         makeShadowMap(r);
     }
@@ -979,6 +1001,12 @@ std::optional<Mat4> drawShadowMap(World& world, Renderer& r, const StepContext& 
     glBindFramebuffer(GL_FRAMEBUFFER, r.shadowFbo);
     glViewport(0, 0, kShadowMapSize, kShadowMapSize);
     glClear(GL_DEPTH_BUFFER_BIT);
+    Vec3 lo, hi;
+    if (!casterBounds(world, lo, hi)) {
+        // nothing casts: the map left clear (depth 1 everywhere), which every lookup finds lit
+        return model({0, 0, 0}, {1, 1, 1});
+    }
+    const Mat4 lightViewProjection = lightProjection(lo, hi, light);
     glEnable(GL_DEPTH_TEST);
     // depth pushed back by the surface's slope, so that a lit surface does not shadow itself
     glEnable(GL_POLYGON_OFFSET_FILL);
@@ -1072,8 +1100,6 @@ void setMeshFrame(Renderer& r, const Look& look, const Mat4& viewProjection, con
     glBindTexture(GL_TEXTURE_2D, lightViewProjection ? r.shadowMap : 0);
     glActiveTexture(GL_TEXTURE0);
     glUniform1i(r.shadow.map, 3);
-    glUniform1f(r.shadow.enabled, lightViewProjection ? 1.0f : 0.0f);
-    glUniform1f(r.shadow.texel, 1.0f / float(kShadowMapSize));
     glUniformMatrix4fv(r.shadow.lightViewProjection, 1, GL_FALSE,
                        (lightViewProjection ? *lightViewProjection : Mat4{}).data());
 }
@@ -1135,7 +1161,7 @@ void renderWorld(World& world, const StepContext& ctx) {
     }
     light = light * (1.0 / length(light));
     const std::optional<Mat4> lightViewProjection =
-        scene.renderShadows ? drawShadowMap(world, r, ctx, light, pool) : std::nullopt;
+        scene.renderShadows ? std::optional<Mat4>(drawShadowMap(world, r, ctx, light, pool)) : std::nullopt;
 
     r.target->bind();
     glClearColor(float(scene.background[0]), float(scene.background[1]), float(scene.background[2]), 1.0f);

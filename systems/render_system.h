@@ -90,9 +90,12 @@ private:
 unsigned compileProgram(const std::string& vertexSource, const std::string& fragmentSource,
                         const std::string& name);
 
-/// The shader assets/shaders/`file` with `defines` (lines of #define: GAMMA, WATER) and look.glsl (colour
-/// spaces, the sky) put in after its #version line, as the mesh program's fragment shader and the sky's
-/// vertex shader take it.
+/// The shader assets/shaders/`file` with `text` (lines of #define, say) put in after its #version line.
+std::string withDefines(const std::string& file, const std::string& text);
+
+/// The shader assets/shaders/`file` with `defines` (lines of #define: GAMMA, SHADOWS, WATER) and look.glsl
+/// (colour spaces, the sky) put in after its #version line, as the mesh program's fragment shader and the
+/// sky's vertex shader take it.
 std::string withLook(const std::string& file, const std::string& defines = "");
 
 /// Writes RGBA pixels (top row first) as a PNG; throws std::runtime_error on failure.

@@ -1,5 +1,5 @@
 #version 300 es
-// One key light, which casts shadows (a shadow map, percentage-closer filtered), ambient light from the sky
+// One key light, which casts shadows with SHADOWS defined (a shadow map, percentage-closer filtered), ambient light from the sky
 // above and the ground below (a hemisphere), two-sided (cloth shows both faces), and a darkening near the
 // ground for contact. A ground plane carries a grid. Compiled with WATER defined, it draws water:
 // see-through, reflecting the sky by Fresnel (a program of its own, not a uniform: a CPU rasteriser pays
@@ -15,32 +15,26 @@ uniform vec3 uSkyLight;      // ambient from straight above (a surface facing up
 uniform vec3 uGroundLight;   // ambient from straight below
 uniform float uGrid;         // 1: a ground plane, with a grid
 uniform vec3 uEye;
-uniform sampler2DShadow uShadowMap;
-uniform mat4 uLightViewProjection;
-uniform float uShadows;     // 1: the shadow map holds this frame's casters
-uniform float uShadowTexel; // 1 / the shadow map's size
 out vec4 fragColor;
 
-// How much of the key light reaches this point: 1 lit, 0 in shadow; four filtered lookups half a texel
-// either way (each itself a 2 x 2 comparison: together 3 x 3 texels) soften the edge. Beside the map: lit.
+#ifdef SHADOWS
+in vec3 vLight;
+uniform sampler2DShadow uShadowMap;
+
+// How much of the key light reaches this point: 1 lit, 0 in shadow; one filtered lookup (a 2 x 2
+// percentage-closer comparison, bilinear: an edge a texel soft; four lookups half a texel apart softened it
+// over three texels for 5 ms more of the curtain's frame on llvmpipe). No branches (a CPU rasteriser runs
+// both sides): beside the map the lookup reads its clamped edge, which no caster reaches (the map spans the
+// casters with a margin): lit; beyond the light box's far side (a ground far below the casters) the
+// compared depth is clamped to 1, which every texel a caster covers is in front of.
 float lightReaching() {
-    if (uShadows <= 0.0) {
-        return 1.0;
-    }
-    vec4 p = uLightViewProjection * vec4(vWorld, 1.0);
-    vec3 q = p.xyz / p.w * 0.5 + 0.5;
-    if (q.x <= 0.0 || q.x >= 1.0 || q.y <= 0.0 || q.y >= 1.0) {
-        return 1.0;
-    }
-    // beyond the light box's far side (a ground far below the casters) the compared depth is clamped to 1,
-    // which every texel a caster covers is in front of: shadowed where a caster is, lit elsewhere
-    float z = q.z - 0.0005;
-    vec2 d = vec2(0.5 * uShadowTexel);
-    return 0.25 * (texture(uShadowMap, vec3(q.xy + vec2(-d.x, -d.y), z)) +
-                   texture(uShadowMap, vec3(q.xy + vec2(d.x, -d.y), z)) +
-                   texture(uShadowMap, vec3(q.xy + vec2(-d.x, d.y), z)) +
-                   texture(uShadowMap, vec3(q.xy + vec2(d.x, d.y), z)));
+    return texture(uShadowMap, vec3(vLight.xy, vLight.z - 0.0005));
 }
+#else
+float lightReaching() {
+    return 1.0;
+}
+#endif
 
 // How much of this pixel the grid's lines cover: lines 4 cm wide every metre along x and along z, each
 // averaged over the pixel's footprint (fwidth: metres a pixel). A line thinner than a pixel is drawn a
@@ -78,14 +72,7 @@ void main() {
         n = -n;
     }
     float diffuse = max(dot(n, -uLightDir), 0.0);
-    float reaching = 1.0;
-#ifdef WATER
-    reaching = lightReaching(); // the glint too
-#else
-    if (diffuse > 0.0) {
-        reaching = lightReaching();
-    }
-#endif
+    float reaching = lightReaching();
     vec3 base = uColor.rgb;
     if (uGrid > 0.0) {
         base *= 1.0 - 0.3 * gridCover(vWorld.xz);
