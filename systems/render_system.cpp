@@ -59,20 +59,29 @@ Framebuffer::Framebuffer(int width, int height, int samples) : m_width(width), m
     GLint most = 1;
     glGetIntegerv(GL_MAX_SAMPLES, &most);
     m_samples = std::max(1, std::min(samples, int(most)));
-    glGenFramebuffers(1, &m_fbo);
-    glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
-    m_color = attachRenderbuffer(GL_RGBA8, GL_COLOR_ATTACHMENT0, width, height, m_samples);
-    m_depth = attachRenderbuffer(GL_DEPTH_COMPONENT24, GL_DEPTH_ATTACHMENT, width, height, m_samples);
-    checkComplete(width, height, m_samples);
-    if (m_samples > 1) {
-        glGenFramebuffers(1, &m_resolveFbo);
-        glBindFramebuffer(GL_FRAMEBUFFER, m_resolveFbo);
-        m_resolveColor = attachRenderbuffer(GL_RGBA8, GL_COLOR_ATTACHMENT0, width, height, 1);
-        checkComplete(width, height, 1);
+    try {
+        glGenFramebuffers(1, &m_fbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, m_fbo);
+        m_color = attachRenderbuffer(GL_RGBA8, GL_COLOR_ATTACHMENT0, width, height, m_samples);
+        m_depth = attachRenderbuffer(GL_DEPTH_COMPONENT24, GL_DEPTH_ATTACHMENT, width, height, m_samples);
+        checkComplete(width, height, m_samples);
+        if (m_samples > 1) {
+            glGenFramebuffers(1, &m_resolveFbo);
+            glBindFramebuffer(GL_FRAMEBUFFER, m_resolveFbo);
+            m_resolveColor = attachRenderbuffer(GL_RGBA8, GL_COLOR_ATTACHMENT0, width, height, 1);
+            checkComplete(width, height, 1);
+        }
+    } catch (...) {
+        release(); // no destructor runs for an object whose constructor throws
+        throw;
     }
 }
 
 Framebuffer::~Framebuffer() {
+    release();
+}
+
+void Framebuffer::release() {
     glDeleteRenderbuffers(1, &m_depth);
     glDeleteRenderbuffers(1, &m_color);
     glDeleteFramebuffers(1, &m_fbo);
@@ -990,7 +999,8 @@ Mat4 lightProjection(const Vec3& lo, const Vec3& hi, const Vec3& light) {
 /// The key light's shadow map: what casts drawn from the light (travelling along `light`) with an
 /// orthographic projection over a box fitted to the casters' bounds. Returns the light's view-projection
 /// (when nothing casts, the map is left clear).
-Mat4 drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3& light, WorkerPool& pool) {
+Mat4 drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3& light, bool wireframe,
+                   WorkerPool& pool) {
     if (!r.shadowFbo) {
         makeShadowMap(r);
     }
@@ -1022,8 +1032,9 @@ Mat4 drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3
         const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions, pool);
         if (net.triangles.empty()) {
             drawBalls(r, net, x, palette(drawn));
-        } else {
-            drawSurface(net, x, r, palette(drawn), pool);
+        } else if (!wireframe) {
+            drawSurface(net, x, r, palette(drawn),
+                        pool); // in wireframe only its springs are drawn: no shadow
         }
         ++drawn;
     });
@@ -1147,7 +1158,8 @@ void renderWorld(World& world, const StepContext& ctx) {
     Renderer& r = renderer(world, scene, *output);
     if (output->width > 0 && output->height > 0 &&
         (output->width != r.target->width() || output->height != r.target->height())) {
-        r.target.reset(); // a window resized: a new target of its size
+        // a window resized: a new target of its size (made before the old one goes: if it cannot be made, the
+        // error leaves the renderer with a target still)
         r.target = std::make_unique<Framebuffer>(output->width, output->height, scene.renderSamples);
     }
     WorkerPool& pool = poolOr(ctx.pool);
@@ -1161,7 +1173,9 @@ void renderWorld(World& world, const StepContext& ctx) {
     }
     light = light * (1.0 / length(light));
     const std::optional<Mat4> lightViewProjection =
-        scene.renderShadows ? std::optional<Mat4>(drawShadowMap(world, r, ctx, light, pool)) : std::nullopt;
+        scene.renderShadows
+            ? std::optional<Mat4>(drawShadowMap(world, r, ctx, light, output->wireframe, pool))
+            : std::nullopt;
 
     r.target->bind();
     glClearColor(float(scene.background[0]), float(scene.background[1]), float(scene.background[2]), 1.0f);

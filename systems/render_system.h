@@ -76,6 +76,9 @@ public:
     void read(std::vector<std::uint8_t>& rgba) const;
 
 private:
+    /// Deletes whatever GL objects were made (names of 0 are skipped by GL).
+    void release();
+
     int m_width;
     int m_height;
     int m_samples = 1;

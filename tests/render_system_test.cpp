@@ -218,6 +218,41 @@ links = [ { a = 0, b = 1 } ]
     EXPECT_NEAR(double(shadowed), disc, 0.1 * disc);
 }
 
+TEST(RenderSystem, AClothInWireframeCastsNoShadow) {
+    // a pinned 1 m cloth lying flat 3 m up, above the camera: drawn as a surface it shadows the floor below
+    // it; in wireframe (the viewer's W) only its springs are drawn, and its invisible surface casts nothing.
+    // Caught the shadow pass drawing surfaces in wireframe
+    const std::string scene = lookingDown(2.0, 640, 480, 1, true) + kGreyFloor + R"(
+[[entity]]
+name = "sheet"
+[entity.transform]
+position = [0.0, 3.0, 0.0]
+[entity.cloth]
+rows = 4
+cols = 4
+size = [1.0, 1.0]
+plane = "xz"
+pin = "corners"
+)";
+    for (const bool wireframe : {false, true}) {
+        auto sim = test::makeSimulation(scene);
+        RenderOutput& out = sim->world().setResource<RenderOutput>();
+        out.enabled = true;
+        out.openContext = openHeadlessContext;
+        out.directory = test::tempPath("render");
+        out.lastFrame = 0;
+        out.wireframe = wireframe;
+        sim->runFrame();
+        Image img;
+        ASSERT_TRUE(lastImage(sim->world(), img.width, img.height, img.rgba));
+        if (wireframe) {
+            EXPECT_GT(img.at(320, 240)[0], 150) << "wireframe: the floor under the cloth is lit";
+        } else {
+            EXPECT_LT(img.at(320, 240)[0], 111) << "a surface: the floor under the cloth is in its shadow";
+        }
+    }
+}
+
 TEST(RenderSystem, AnObjectLeftOfTheTargetAppearsOnTheLeft) {
     for (double x : {-1.5, 1.5}) {
         const Image img = renderOnce(sphereAt(x, 0.5));
