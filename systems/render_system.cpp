@@ -924,7 +924,8 @@ double reach(const RigidBody2D& b) {
     return std::hypot(r, kSlabHalfDepth);
 }
 
-/// The box holding everything that casts a shadow (bodies but planes, spring networks); false when nothing.
+/// The box holding everything that casts a shadow (bodies but planes, spring networks), where they are and
+/// where they were before the last step; false when nothing casts.
 bool casterBounds(World& world, Vec3& lo, Vec3& hi) {
     bool any = false;
     auto grow = [&](const Vec3& p, double r) {
@@ -933,18 +934,32 @@ bool casterBounds(World& world, Vec3& lo, Vec3& hi) {
         hi = any ? Vec3{std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)} : b;
         any = true;
     };
-    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+    // a frame between two steps draws the casters between where they were and are: both count
+    auto before = [&](Entity e, double r) {
+        if (const PoseHistory* pose = world.tryGet<PoseHistory>(e)) {
+            grow(pose->position, r);
+        }
+    };
+    world.view<const RigidBody>().each([&](Entity e, const RigidBody& b) {
         if (b.shape != ShapeKind::Plane) {
             grow(b.position, reach(b));
+            before(e, reach(b));
         }
     });
     world.view<const RigidBody2D, const Transform>().each(
-        [&](Entity, const RigidBody2D& b, const Transform& t) {
+        [&](Entity e, const RigidBody2D& b, const Transform& t) {
             grow({b.position[0], b.position[1], t.position.z}, reach(b));
+            before(e, reach(b));
         });
-    world.view<const SpringNetwork>().each([&](Entity, const SpringNetwork& net) {
+    world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
+        const double r = std::max(0.04, net.thickness);
         for (const Vec3& p : net.x) {
-            grow(p, std::max(0.04, net.thickness));
+            grow(p, r);
+        }
+        if (const RenderHistory* history = world.tryGet<RenderHistory>(e)) {
+            for (const Vec3& p : history->previous) {
+                grow(p, r);
+            }
         }
     });
     return any && isFinite(lo) && isFinite(hi);
@@ -1013,8 +1028,9 @@ Mat4 drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3
     glClear(GL_DEPTH_BUFFER_BIT);
     Vec3 lo, hi;
     if (!casterBounds(world, lo, hi)) {
-        // nothing casts: the map left clear (depth 1 everywhere), which every lookup finds lit
-        return model({0, 0, 0}, {1, 1, 1});
+        // nothing casts: the map left clear (depth 1 everywhere), and a zero matrix puts every point in its
+        // middle at depth 0.5: lit
+        return Mat4{};
     }
     const Mat4 lightViewProjection = lightProjection(lo, hi, light);
     glEnable(GL_DEPTH_TEST);
@@ -1141,7 +1157,8 @@ void drawWaters(World& world, Renderer& r, WorkerPool& pool, const Look& look, c
     swapLit(r, r.water);
     setMeshFrame(r, look, viewProjection, eye, light, lightViewProjection);
     glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    // the colour blended, the image's alpha kept at 1 (a PNG or a video frame is opaque)
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
     world.view<const Water>().each([&](Entity, const Water& w) { drawWater(w, r, pool); });
     glDisable(GL_BLEND);
     swapLit(r, r.water);
@@ -1257,7 +1274,8 @@ void renderWorld(World& world, const StepContext& ctx) {
     glUniform3f(r.particle.right, view[0], view[4], view[8]);
     glUniform3f(r.particle.up, view[1], view[5], view[9]);
     glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    // the colour blended, the image's alpha kept at 1 (a PNG or a video frame is opaque)
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
     glDepthMask(GL_FALSE);
     world.view<const ParticleEmitter>().each([&](Entity, const ParticleEmitter& e) {
         const ParticlePool& p = e.pool;

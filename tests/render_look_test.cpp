@@ -217,6 +217,7 @@ TEST(RenderLook, AFloorPatchUnderWaterShowsThroughItLessAtGrazingAngles) {
     // and the water is drawn: over the black floor it shows its own colour, blue
     const Image pool = renderOnce(patchScene("[0.0, 4.5, 0.0001]", false, true));
     EXPECT_GT(pool.at(320, 240)[2], pool.at(320, 240)[0] + 20);
+    EXPECT_EQ(pool.at(320, 240)[3], 255) << "blending leaves the image opaque (a PNG's alpha)";
 }
 
 } // namespace

@@ -218,6 +218,51 @@ links = [ { a = 0, b = 1 } ]
     EXPECT_NEAR(double(shadowed), disc, 0.1 * disc);
 }
 
+/// A grey ground plane (a grid line every metre) seen from 6 m straight above (0.5, 0, 0.5), a cell's middle.
+std::string groundFromAbove(const std::string& light) {
+    return "[scene]\nname = \"ground\"\ngravity = [0, 0, 0]\n[camera]\neye = [0.5, 6.0, 0.5001]\ntarget = "
+           "[0.5, 0.0, "
+           "0.5]\nfov_deg = 45.0\n[render]\nwidth = 640\nheight = 480\nmsaa = 1\nlight_direction = " +
+           light + "\n" + kPlainLook + R"(
+[[entity]]
+name = "ground"
+[entity.rigid_body]
+shape = "plane"
+normal = [0.0, 1.0, 0.0]
+color = [0.8, 0.8, 0.8]
+)";
+}
+
+TEST(RenderSystem, AnObliqueShadowFallsBesideItsCasterAndTheGroundOffTheMapIsLit) {
+    // a ball of radius 0.5 m 2 m above the ground, the light 45 degrees from straight down along +x: its
+    // shadow is centred 2 m along x from below it. The ground lit is 0.8 (0.35 + 0.75 cos 45) = 0.70 (180),
+    // in shadow 0.8 x 0.35 = 0.28 (71). The shadow map spans the ball alone: the ground away from it is
+    // read off the map, and is lit. Pixels at cells' middles (the grid lines are on whole metres)
+    const std::string light = "[0.7071, -0.7071, 0.0]";
+    const Image img = renderOnce(groundFromAbove(light) + R"(
+[[entity]]
+name = "ball"
+[entity.transform]
+position = [0.5, 2.0, 0.5]
+[entity.rigid_body]
+shape = "sphere"
+radius = 0.5
+)");
+    const double metre = 480.0 / (2.0 * std::tan(45.0 * std::numbers::pi / 360.0)) / 6.0; // pixels
+    const int shadowX = int(320 + 2.0 * metre), mirrorX = int(320 - 2.0 * metre);
+    EXPECT_LT(img.at(shadowX, 240)[0], 111) << "the shadow, 2 m along the light from below the ball";
+    EXPECT_GT(img.at(mirrorX, 240)[0], 150) << "2 m the other way: lit";
+    for (const auto& [x, y] : {std::pair{int(320 - 3 * metre), int(240 - 2 * metre)},
+                               std::pair{int(320 + 3 * metre), int(240 + 2 * metre)}}) {
+        EXPECT_GT(img.at(x, y)[0], 150) << "the ground far off the shadow map, at " << x << ", " << y;
+    }
+    // and with nothing that casts, the shadow map is empty: the ground lit everywhere
+    const Image bare = renderOnce(groundFromAbove(light));
+    for (const int x : {shadowX, mirrorX, 320}) {
+        EXPECT_GT(bare.at(x, 240)[0], 150) << "nothing casts: lit at " << x;
+    }
+}
+
 TEST(RenderSystem, AClothInWireframeCastsNoShadow) {
     // a pinned 1 m cloth lying flat 3 m up, above the camera: drawn as a surface it shadows the floor below
     // it; in wireframe (the viewer's W) only its springs are drawn, and its invisible surface casts nothing.

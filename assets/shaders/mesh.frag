@@ -26,9 +26,10 @@ uniform sampler2DShadow uShadowMap;
 // over three texels for 5 ms more of the curtain's frame on llvmpipe). No branches (a CPU rasteriser runs
 // both sides): beside the map the lookup reads its clamped edge, which no caster reaches (the map spans the
 // casters with a margin): lit; beyond the light box's far side (a ground far below the casters) the
-// compared depth is clamped to 1, which every texel a caster covers is in front of.
+// compared depth is 1 (clamped here too, not left to the driver), which every texel a caster covers is in
+// front of.
 float lightReaching() {
-    return texture(uShadowMap, vec3(vLight.xy, vLight.z - 0.0005));
+    return texture(uShadowMap, vec3(vLight.xy, min(vLight.z - 0.0005, 1.0)));
 }
 #else
 float lightReaching() {
