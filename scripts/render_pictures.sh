@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Re-renders the README's demo pictures (docs/images/DEMO.png) with the command under each picture in the
+# Re-renders the README's demo pictures (docs/images/DEMO.png) with the command beside each picture in the
 # README's table (build/tumble run DEMO [--frames N]), from a Release build in build/.
 #   bash scripts/render_pictures.sh [DEMO ...]   (default: every demo the table shows)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
-grep -o 'build/tumble run [a-z0-9_]*\( --frames [0-9]*\)\?' "$root/README.md" | sort -u | while read -r _ _ demo _ frames; do
+grep '](docs/images/' "$root/README.md" | grep -o 'build/tumble run [a-z0-9_]*\( --frames [0-9]*\)\?' | sort -u | while read -r _ _ demo _ frames; do
     if [ ! -f "$root/demos/$demo.toml" ] || { [ $# -gt 0 ] && [[ " $* " != *" $demo "* ]]; }; then
         continue
     fi
