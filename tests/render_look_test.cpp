@@ -201,9 +201,10 @@ TEST(RenderLook, AFloorPatchUnderWaterShowsThroughItLessAtGrazingAngles) {
     // Fresnel share F = 0.02 + 0.98 (1 - cos)^5 (Schlick; cos between the view and the surface's normal):
     // (1 - F)(1 - 0.45) of the patch's contrast against the floor comes through the water. Blending is on
     // the written values, so the contrast through water is that share of the dry contrast exactly
-    for (const auto& [eye, cosine] :
-         {std::pair{std::string("[0.0, 4.5, 0.0001]"), 1.0},
-          std::pair{std::string("[0.0, 1.9, 7.0]"), 1.3 / std::hypot(1.3, 7.0)}}) {
+    for (const auto& view : {std::pair{std::string("[0.0, 4.5, 0.0001]"), 1.0},
+                             std::pair{std::string("[0.0, 1.9, 7.0]"), 1.3 / std::hypot(1.3, 7.0)}}) {
+        const std::string& eye = view.first; // (clang 14 cannot capture a structured binding)
+        const double cosine = view.second;
         const auto contrast = [&](bool water) {
             const Image with = renderOnce(patchScene(eye, true, water));
             const Image without = renderOnce(patchScene(eye, false, water));
