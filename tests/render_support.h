@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,18 +25,29 @@ struct Image {
     }
 };
 
-/// Renders one frame of a scenario in this process and returns the image.
-inline Image renderOnce(const std::string& text) {
+/// A simulation of a scenario that renders headlessly in this process (no PNG written).
+inline std::unique_ptr<Simulation> renderedSimulation(const std::string& text) {
     auto sim = makeSimulation(text);
     RenderOutput& out = sim->world().setResource<RenderOutput>();
     out.enabled = true;
     out.openContext = openHeadlessContext;
     out.directory = tempPath("render");
     out.lastFrame = 0; // no PNG
-    sim->runFrame();
+    return sim;
+}
+
+/// The last image a simulation drew.
+inline Image lastImageOf(Simulation& sim) {
     Image img;
-    EXPECT_TRUE(lastImage(sim->world(), img.width, img.height, img.rgba));
+    EXPECT_TRUE(lastImage(sim.world(), img.width, img.height, img.rgba));
     return img;
+}
+
+/// Renders one frame of a scenario in this process and returns the image.
+inline Image renderOnce(const std::string& text) {
+    auto sim = renderedSimulation(text);
+    sim->runFrame();
+    return lastImageOf(*sim);
 }
 
 /// A scenario's static box entity: TOML arrays for its centre, half extents and colour.

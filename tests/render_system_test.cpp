@@ -24,6 +24,7 @@ namespace tumble {
 namespace {
 
 using test::Image;
+using test::renderedSimulation;
 using test::renderOnce;
 
 /// The plain look: a flat sky of the background's colour, grey ambient light from above, colours lit and
@@ -280,16 +281,10 @@ plane = "xz"
 pin = "corners"
 )";
     for (const bool wireframe : {false, true}) {
-        auto sim = test::makeSimulation(scene);
-        RenderOutput& out = sim->world().setResource<RenderOutput>();
-        out.enabled = true;
-        out.openContext = openHeadlessContext;
-        out.directory = test::tempPath("render");
-        out.lastFrame = 0;
-        out.wireframe = wireframe;
+        auto sim = renderedSimulation(scene);
+        sim->world().resource<RenderOutput>().wireframe = wireframe;
         sim->runFrame();
-        Image img;
-        ASSERT_TRUE(lastImage(sim->world(), img.width, img.height, img.rgba));
+        const Image img = test::lastImageOf(*sim);
         if (wireframe) {
             EXPECT_GT(img.at(320, 240)[0], 150) << "wireframe: the floor under the cloth is lit";
         } else {
@@ -375,19 +370,7 @@ Image redrawAt(Simulation& sim, double alpha) {
     ctx.dt = sim.scene().dt;
     ctx.alpha = alpha;
     renderWorld(sim.world(), ctx);
-    Image img;
-    EXPECT_TRUE(lastImage(sim.world(), img.width, img.height, img.rgba));
-    return img;
-}
-
-std::unique_ptr<Simulation> renderedSimulation(const std::string& text) {
-    auto sim = test::makeSimulation(text);
-    RenderOutput& out = sim->world().setResource<RenderOutput>();
-    out.enabled = true;
-    out.openContext = openHeadlessContext;
-    out.directory = test::tempPath("render");
-    out.lastFrame = 0; // no PNG
-    return sim;
+    return test::lastImageOf(sim);
 }
 
 TEST(RenderSystem, AMassIsDrawnBetweenTheLastTwoStepsAtAlpha) {
@@ -535,9 +518,7 @@ Image renderAfter(const std::string& text, int frames) {
     }
     out.enabled = true;
     sim->runFrame();
-    Image img;
-    EXPECT_TRUE(lastImage(sim->world(), img.width, img.height, img.rgba));
-    return img;
+    return test::lastImageOf(*sim);
 }
 
 /// A 2 m box of air (cells of 5 cm) on a black sky, a still sphere of smoke of radius 0.5 m at its centre
