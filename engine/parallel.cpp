@@ -38,8 +38,13 @@ void relax() {
 template <class Done>
 void waitUntil(Done done) {
     const auto start = std::chrono::steady_clock::now();
+    bool spinning = true;
     for (unsigned k = 0; !done(); ++k) {
-        if (k < 64 || std::chrono::steady_clock::now() - start < kSpin) {
+        // the clock is read every 16th poll: reading it costs more than a poll
+        if (spinning && (k & 15) == 15) {
+            spinning = std::chrono::steady_clock::now() - start < kSpin;
+        }
+        if (spinning) {
             relax();
         } else {
             std::this_thread::yield();
@@ -76,8 +81,11 @@ struct WorkerPool::Job {
     std::size_t n = 0, grain = 0, chunks = 0;
     void* fn = nullptr;
     ChunkFn call = nullptr;
-    bool helpable = true;                 ///< false for the schedule's tasks, which wait on each other
-    std::atomic<std::size_t> next{0};     ///< the next chunk to claim
+    bool helpable = true; ///< false for the schedule's tasks, which wait on each other
+    /// The chunks not yet claimed, [front, back): the low 32 bits hold front, the high ones back. The
+    /// thread that posted the loop claims from the front and helpers from the back, so on two threads
+    /// each keeps to its own end from one loop to the next and finds its rows still in its own cache.
+    std::atomic<std::uint64_t> unclaimed{0};
     std::atomic<std::size_t> finished{0}; ///< chunks done
     std::atomic<int> visitors{0};         ///< workers inside runChunks of this job
     std::uint64_t floatMode = 0;          ///< the caller's
@@ -116,7 +124,34 @@ int WorkerPool::threadIndex() {
     return t_threadIndex;
 }
 
-void WorkerPool::runChunks(Job& job) {
+namespace {
+
+constexpr std::uint64_t kBack = std::uint64_t(1) << 32;
+
+/// Claims a chunk of a job's unclaimed span from its front or its back; false when none is left.
+bool claimChunk(std::atomic<std::uint64_t>& unclaimed, bool fromFront, std::size_t& chunk) {
+    std::uint64_t span = unclaimed.load(std::memory_order_relaxed);
+    for (;;) {
+        const std::uint64_t front = span & (kBack - 1), back = span >> 32;
+        if (front >= back) {
+            return false;
+        }
+        const std::uint64_t claimed = fromFront ? span + 1 : span - kBack;
+        if (unclaimed.compare_exchange_weak(span, claimed, std::memory_order_relaxed)) {
+            chunk = std::size_t(fromFront ? front : back - 1);
+            return true;
+        }
+    }
+}
+
+bool anyUnclaimed(const std::atomic<std::uint64_t>& unclaimed) {
+    const std::uint64_t span = unclaimed.load(std::memory_order_relaxed);
+    return (span & (kBack - 1)) < (span >> 32);
+}
+
+} // namespace
+
+void WorkerPool::runChunks(Job& job, bool fromFront) {
     // take the caller's floating-point mode and running system for as long as this thread works for it
     const std::uint64_t ownMode = floatMode();
     if (ownMode != job.floatMode) {
@@ -125,11 +160,8 @@ void WorkerPool::runChunks(Job& job) {
     RunningSystem& running = runningSystem();
     const RunningSystem ownRunning = running;
     running = job.running;
-    for (;;) {
-        const std::size_t c = job.next.fetch_add(1, std::memory_order_relaxed);
-        if (c >= job.chunks) {
-            break;
-        }
+    std::size_t c = 0;
+    while (claimChunk(job.unclaimed, fromFront, c)) {
         try {
             job.call(job.fn, c, c * job.grain, std::min(job.n, (c + 1) * job.grain));
         } catch (...) {
@@ -148,6 +180,7 @@ void WorkerPool::runChunks(Job& job) {
 }
 
 void WorkerPool::post(Job& job) {
+    job.unclaimed.store(std::uint64_t(job.chunks) << 32, std::memory_order_relaxed);
     job.floatMode = floatMode();
     job.running = runningSystem();
     std::lock_guard lock(m_mutex);
@@ -178,7 +211,7 @@ void WorkerPool::run(std::size_t n, std::size_t grain, std::size_t chunks, void*
     job.fn = fn;
     job.call = call;
     post(job);
-    runChunks(job);
+    runChunks(job, true);
     waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
     retire(job);
 }
@@ -190,7 +223,7 @@ bool WorkerPool::runSomeChunk(bool helpableOnly) {
         // the newest first: nested loops of running tasks finish them sooner
         for (auto it = m_jobs.rbegin(); it != m_jobs.rend(); ++it) {
             Job* j = *it;
-            if ((!helpableOnly || j->helpable) && j->next.load(std::memory_order_relaxed) < j->chunks) {
+            if ((!helpableOnly || j->helpable) && anyUnclaimed(j->unclaimed)) {
                 picked = j;
                 picked->visitors.fetch_add(1, std::memory_order_relaxed);
                 break;
@@ -200,7 +233,7 @@ bool WorkerPool::runSomeChunk(bool helpableOnly) {
     if (!picked) {
         return false;
     }
-    runChunks(*picked);
+    runChunks(*picked, false);
     picked->visitors.fetch_sub(1, std::memory_order_release);
     return true;
 }
@@ -353,7 +386,7 @@ void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_
     job.fn = &tasks;
     job.call = [](void* f, std::size_t, std::size_t, std::size_t) { static_cast<TaskSet*>(f)->work(); };
     post(job);
-    runChunks(job);
+    runChunks(job, true);
     awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });
     waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
     retire(job);

@@ -3,9 +3,11 @@
 //
 // The same bits on any number of threads. A loop over [0, n) is cut into chunks of `grain` indices
 // (chunk c covers [c * grain, min(n, (c + 1) * grain))): the boundaries depend only on n and the grain,
-// never on how many threads there are. Threads claim chunks as they come free, so which thread runs a
-// chunk varies, but a chunk's work does not depend on it. A reduction keeps one partial per chunk and adds
-// the partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one
+// never on how many threads there are. Threads claim chunks as they come free (the asking thread from the
+// first chunk up, helpers from the last down, so that on two threads each tends to get the same rows, still
+// in its cache, loop after loop), so which thread runs a chunk varies, but a chunk's work does not depend
+// on it. A loop of 2^32 chunks or more runs on the caller alone. A reduction keeps one partial per chunk and
+// adds the partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one
 // thread the chunks simply run in order on the caller, through the same code.
 //
 // Why our own pool and not oneTBB: a conjugate-gradient step of the cloth makes hundreds of fork-joins of
@@ -66,7 +68,7 @@ public:
     template <class F>
     void forChunks(std::size_t n, std::size_t grain, F&& fn) {
         const std::size_t chunks = chunkCount(n, grain);
-        if (chunks <= 1 || m_workers.empty()) {
+        if (chunks <= 1 || m_workers.empty() || chunks >= (std::size_t(1) << 32)) {
             // on one thread too, every chunk runs and the first error is rethrown after: the same state
             std::exception_ptr error;
             for (std::size_t c = 0; c < chunks; ++c) {
@@ -103,7 +105,7 @@ public:
     template <class T, class F>
     T sum(std::size_t n, std::size_t grain, T zero, F&& chunkSum) {
         const std::size_t chunks = chunkCount(n, grain);
-        constexpr std::size_t kOnStack = 64;
+        constexpr std::size_t kOnStack = 256;
         std::array<T, kOnStack> local{};
         std::vector<T> heap;
         T* partial = local.data();
@@ -141,7 +143,9 @@ private:
     void workerMain(int index);
     /// Runs the free chunks of some posted job (only helpable ones if `helpableOnly`); false if none was.
     bool runSomeChunk(bool helpableOnly);
-    void runChunks(Job& job);
+    /// Runs chunks of the job until none is left to claim, from its front (the thread that posted it) or
+    /// its back (a helper).
+    void runChunks(Job& job, bool fromFront);
     void post(Job& job);
     void retire(Job& job);
     /// Wakes threads asleep in awaitReady (a task has ended).

@@ -68,8 +68,10 @@ struct ReplayFile {
 /// the implicit solver's rows summed in two partials for its AVX2 kernels, keyed particle births, the `set`
 /// event's KEY=VALUE in every event; 4: fem bodies' rotations started from their spin, their system blocks
 /// summed in float; 5: fem elements two at a time in their own arithmetic; 6: every hash and checksum on
-/// XXH3-64), so that another version's replay is refused with a message rather than failing to verify.
-inline constexpr std::uint32_t kReplayVersion = 6;
+/// XXH3-64; 7: the implicit solver's levels of 1024 rows or more swept colour by colour, its dot products
+/// in chunks of 512 rows), so that another version's replay is refused with a message rather than failing
+/// to verify.
+inline constexpr std::uint32_t kReplayVersion = 7;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.

@@ -19,6 +19,46 @@ struct RowBlocks {
     std::uint32_t at(std::uint32_t k) const { return k < e0 - b0 ? b0 + k : b1 + (k - (e0 - b0)); }
 };
 
+/// The blocks of one row as a list of block indices (a level swept colour by colour: SweepOrder).
+struct ListedBlocks {
+    const std::uint32_t* items;
+    std::uint32_t n;
+
+    std::uint32_t count() const { return n; }
+    std::uint32_t at(std::uint32_t k) const { return items[k]; }
+};
+
+/// The blocks a forward sweep from zero reads for row i (those of rows swept before it) and those the
+/// residual after it reads (the rest): left and right of the diagonal in row order, else as listed.
+template <class S>
+struct BeforeBlocks {
+    const BlockMatrix<S>& a;
+    RowBlocks operator()(std::uint32_t i) const { return {a.rowStart[i], a.diag[i], 0, 0}; }
+};
+template <class S>
+struct AfterBlocks {
+    const BlockMatrix<S>& a;
+    RowBlocks operator()(std::uint32_t i) const {
+        return {a.diag[i] + 1, a.rowStart[std::size_t(i) + 1], 0, 0};
+    }
+};
+struct ListedBefore {
+    const std::uint32_t* rowStart;
+    const SweepOrder& order;
+    ListedBlocks operator()(std::uint32_t i) const {
+        const std::uint32_t first = rowStart[i] - i;
+        return {order.items.data() + first, order.split[i] - first};
+    }
+};
+struct ListedAfter {
+    const std::uint32_t* rowStart;
+    const SweepOrder& order;
+    ListedBlocks operator()(std::uint32_t i) const {
+        const std::uint32_t end = rowStart[std::size_t(i) + 1] - (i + 1);
+        return {order.items.data() + order.split[i], end - order.split[i]};
+    }
+};
+
 template <class S>
 RowBlocks wholeRow(const BlockMatrix<S>& a, std::uint32_t i) {
     return {a.rowStart[i], a.rowStart[std::size_t(i) + 1], 0, 0};
@@ -27,19 +67,11 @@ template <class S>
 RowBlocks offDiagonal(const BlockMatrix<S>& a, std::uint32_t i) {
     return {a.rowStart[i], a.diag[i], a.diag[i] + 1, a.rowStart[std::size_t(i) + 1]};
 }
-template <class S>
-RowBlocks lowerBlocks(const BlockMatrix<S>& a, std::uint32_t i) {
-    return {a.rowStart[i], a.diag[i], 0, 0};
-}
-template <class S>
-RowBlocks upperBlocks(const BlockMatrix<S>& a, std::uint32_t i) {
-    return {a.diag[i] + 1, a.rowStart[std::size_t(i) + 1], 0, 0};
-}
 
 // ---- double (and any scalar): plain code, the same order ----
 
-template <class S>
-Vec3T<S> rowSum(const BlockMatrix<S>& a, const Vec3T<S>* x, const RowBlocks& row) {
+template <class S, class Row>
+Vec3T<S> rowSum(const BlockMatrix<S>& a, const Vec3T<S>* x, const Row& row) {
     Vec3T<S> even, odd;
     const std::uint32_t count = row.count();
     std::uint32_t k = 0;
@@ -72,19 +104,19 @@ void smoothPlain(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* 
     }
 }
 
-template <class S>
+template <class S, class Rows>
 void forwardPlain(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
-                  std::uint32_t first, std::uint32_t end) {
+                  std::uint32_t first, std::uint32_t end, Rows before) {
     for (std::uint32_t i = first; i < end; ++i) {
-        x[i] = symmetricTimes(dinv[i], b[i] - rowSum(a, x, lowerBlocks(a, i)));
+        x[i] = symmetricTimes(dinv[i], b[i] - rowSum(a, x, before(i)));
     }
 }
 
-template <class S>
+template <class S, class Rows>
 void residualPlain(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
-                   std::uint32_t end) {
+                   std::uint32_t end, Rows after) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<S>{} - rowSum(a, x, upperBlocks(a, i));
+        r[i] = Vec3T<S>{} - rowSum(a, x, after(i));
     }
 }
 
@@ -100,7 +132,8 @@ inline __m128 blockTimes(const Mat3T<float>& m, __m128 v) {
     return _mm_add_ps(r, _mm_mul_ps(_mm_loadu_ps(&m.m[6]), _mm_shuffle_ps(v, v, 0xaa)));
 }
 
-inline __m128 rowSumSse2(const BlockMatrix<float>& a, const Vec3T<float>* x, const RowBlocks& row) {
+template <class Row>
+inline __m128 rowSumSse2(const BlockMatrix<float>& a, const Vec3T<float>* x, const Row& row) {
     __m128 even = _mm_setzero_ps(), odd = _mm_setzero_ps();
     const std::uint32_t count = row.count();
     std::uint32_t k = 0;
@@ -132,19 +165,20 @@ void smoothSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec
     }
 }
 
+template <class Rows>
 void forwardSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b,
-                 Vec3T<float>* x, std::uint32_t first, std::uint32_t end) {
+                 Vec3T<float>* x, std::uint32_t first, std::uint32_t end, Rows before) {
     for (std::uint32_t i = first; i < end; ++i) {
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, x, lowerBlocks(a, i)));
+        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, x, before(i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
     }
 }
 
+template <class Rows>
 void residualSse2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* r, std::uint32_t first,
-                  std::uint32_t end) {
+                  std::uint32_t end, Rows after) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<float>(
-            _mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumSse2(a, x, upperBlocks(a, i))), kKeepXyz));
+        r[i] = Vec3T<float>(_mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumSse2(a, x, after(i))), kKeepXyz));
     }
 }
 
@@ -167,8 +201,8 @@ TUMBLE_AVX2 inline __m256 pairTimes(const Mat3T<float>& p, const Mat3T<float>& q
     return _mm256_add_ps(r, _mm256_mul_ps(row2, _mm256_permute_ps(v, 0xaa)));
 }
 
-TUMBLE_AVX2 inline __m128 rowSumAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x,
-                                     const RowBlocks& row) {
+template <class Row>
+TUMBLE_AVX2 inline __m128 rowSumAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, const Row& row) {
     __m256 both = _mm256_setzero_ps();
     const std::uint32_t count = row.count();
     std::uint32_t k = 0;
@@ -202,19 +236,20 @@ TUMBLE_AVX2 void smoothAvx2(const BlockMatrix<float>& a, const Mat3T<float>* din
     }
 }
 
+template <class Rows>
 TUMBLE_AVX2 void forwardAvx2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b,
-                             Vec3T<float>* x, std::uint32_t first, std::uint32_t end) {
+                             Vec3T<float>* x, std::uint32_t first, std::uint32_t end, Rows before) {
     for (std::uint32_t i = first; i < end; ++i) {
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, x, lowerBlocks(a, i)));
+        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, x, before(i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
     }
 }
 
+template <class Rows>
 TUMBLE_AVX2 void residualAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* r,
-                              std::uint32_t first, std::uint32_t end) {
+                              std::uint32_t first, std::uint32_t end, Rows after) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<float>(
-            _mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumAvx2(a, x, upperBlocks(a, i))), kKeepXyz));
+        r[i] = Vec3T<float>(_mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumAvx2(a, x, after(i))), kKeepXyz));
     }
 }
 
@@ -247,23 +282,48 @@ void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b
     }
 }
 
+namespace {
+
+template <class S, class Rows>
+void forwardWith(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
+                 std::uint32_t first, std::uint32_t end, Rows before) {
+    if constexpr (std::is_same_v<S, float>) {
+        useAvx2() ? forwardAvx2(a, dinv, b, x, first, end, before)
+                  : forwardSse2(a, dinv, b, x, first, end, before);
+    } else {
+        forwardPlain(a, dinv, b, x, first, end, before);
+    }
+}
+
+template <class S, class Rows>
+void residualWith(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
+                  std::uint32_t end, Rows after) {
+    if constexpr (std::is_same_v<S, float>) {
+        useAvx2() ? residualAvx2(a, x, r, first, end, after) : residualSse2(a, x, r, first, end, after);
+    } else {
+        residualPlain(a, x, r, first, end, after);
+    }
+}
+
+} // namespace
+
 template <class S>
 void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
-                         std::uint32_t first, std::uint32_t end) {
-    if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? forwardAvx2(a, dinv, b, x, first, end) : forwardSse2(a, dinv, b, x, first, end);
+                         std::uint32_t first, std::uint32_t end, const SweepOrder* order) {
+    if (order) {
+        forwardWith(a, dinv, b, x, first, end, ListedBefore{a.rowStart.data(), *order});
     } else {
-        forwardPlain(a, dinv, b, x, first, end);
+        forwardWith(a, dinv, b, x, first, end, BeforeBlocks<S>{a});
     }
 }
 
 template <class S>
 void residualAfterForward(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
-                          std::uint32_t end) {
-    if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? residualAvx2(a, x, r, first, end) : residualSse2(a, x, r, first, end);
+                          std::uint32_t end, const SweepOrder* order) {
+    if (order) {
+        residualWith(a, x, r, first, end, ListedAfter{a.rowStart.data(), *order});
     } else {
-        residualPlain(a, x, r, first, end);
+        residualWith(a, x, r, first, end, AfterBlocks<S>{a});
     }
 }
 
@@ -276,12 +336,12 @@ template void smoothRows(const BlockMatrix<float>&, const Mat3T<float>*, const V
 template void smoothRows(const BlockMatrix<double>&, const Mat3T<double>*, const Vec3T<double>*,
                          Vec3T<double>*, std::uint32_t, std::uint32_t, bool);
 template void forwardRowsFromZero(const BlockMatrix<float>&, const Mat3T<float>*, const Vec3T<float>*,
-                                  Vec3T<float>*, std::uint32_t, std::uint32_t);
+                                  Vec3T<float>*, std::uint32_t, std::uint32_t, const SweepOrder*);
 template void forwardRowsFromZero(const BlockMatrix<double>&, const Mat3T<double>*, const Vec3T<double>*,
-                                  Vec3T<double>*, std::uint32_t, std::uint32_t);
+                                  Vec3T<double>*, std::uint32_t, std::uint32_t, const SweepOrder*);
 template void residualAfterForward(const BlockMatrix<float>&, const Vec3T<float>*, Vec3T<float>*,
-                                   std::uint32_t, std::uint32_t);
+                                   std::uint32_t, std::uint32_t, const SweepOrder*);
 template void residualAfterForward(const BlockMatrix<double>&, const Vec3T<double>*, Vec3T<double>*,
-                                   std::uint32_t, std::uint32_t);
+                                   std::uint32_t, std::uint32_t, const SweepOrder*);
 
 } // namespace tumble::kernels

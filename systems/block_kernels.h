@@ -13,6 +13,7 @@
 #include "systems/block_sparse.h"
 
 #include <cstdint>
+#include <vector>
 
 namespace tumble::kernels {
 
@@ -27,16 +28,26 @@ template <class S>
 void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                 std::uint32_t first, std::uint32_t end, bool forward);
 
+/// The order of a forward sweep that visits rows out of their numbering (colour by colour): each row's
+/// off-diagonal blocks in two lists, those of rows swept before it, then those of rows swept after it,
+/// each in column order. Row i's are items[first(i) .. split[i]) and items[split[i] .. first(i + 1)),
+/// where first(i) = rowStart[i] - i (the off-diagonal blocks of the rows before it).
+struct SweepOrder {
+    std::vector<std::uint32_t> items, split;
+};
+
 /// The first forward Gauss-Seidel sweep, from x = 0, over the rows [first, end): x_i = D_i^-1 (b_i -
-/// sum_{j<i} A_ij x_j) (the rows after i still hold zero, so only the blocks left of the diagonal count).
+/// sum_{j before i} A_ij x_j) (the rows after i still hold zero, so only the blocks of the rows swept
+/// before it count: those left of the diagonal, or as `order` lists them).
 template <class S>
 void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
-                         std::uint32_t first, std::uint32_t end);
+                         std::uint32_t first, std::uint32_t end, const SweepOrder* order = nullptr);
 
 /// The residual b - A x after forwardRowsFromZero swept every row, for the rows [first, end): since D_i x_i
-/// = b_i - sum_{j<i} A_ij x_j, it is r_i = -sum_{j>i} A_ij x_j, the blocks right of the diagonal.
+/// = b_i - sum_{j before i} A_ij x_j, it is r_i = -sum_{j after i} A_ij x_j (the blocks right of the
+/// diagonal, or as `order` lists them).
 template <class S>
 void residualAfterForward(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
-                          std::uint32_t end);
+                          std::uint32_t end, const SweepOrder* order = nullptr);
 
 } // namespace tumble::kernels

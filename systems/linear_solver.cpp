@@ -120,7 +120,7 @@ void invert(const std::vector<std::uint32_t>& listOf, std::uint32_t lists, std::
 template <class S>
 void galerkin(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& sourceStart,
               const std::vector<std::uint32_t>& sources, BlockMatrix<S>& coarse, WorkerPool& pool) {
-    pool.forEach(coarse.val.size(), 4096, [&](std::size_t c) {
+    pool.forEach(coarse.val.size(), 1024, [&](std::size_t c) {
         Mat3 sum;
         for (std::uint32_t k = sourceStart[c]; k < sourceStart[c + 1]; ++k) {
             const Mat3T<S>& from = fine.val[sources[k]];
@@ -148,7 +148,7 @@ void findSources(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& g
 template <class S>
 void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out, WorkerPool& pool) {
     out.resize(a.n);
-    pool.forEach(a.n, 4096, [&](std::size_t i) { out[i] = a.val[a.diag[i]].inverse(); });
+    pool.forEach(a.n, 512, [&](std::size_t i) { out[i] = a.val[a.diag[i]].inverse(); });
 }
 
 /// Dot product accumulated in double: in index order within each chunk of kDotRows rows, the chunks'
@@ -165,6 +165,29 @@ double dotAll(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b, Wo
     });
 }
 
+/// Zeroes b's fixed rows in [first, end) and returns a . b over them in double, in index order.
+template <class S>
+double filteredDot(const std::vector<Vec3T<S>>& a, std::vector<Vec3T<S>>& b,
+                   const std::vector<std::uint8_t>& fixed, std::size_t first, std::size_t end) {
+    double s = 0.0;
+    for (std::size_t i = first; i < end; ++i) {
+        if (fixed[i]) {
+            b[i] = Vec3T<S>{};
+        }
+        s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) +
+             double(a[i].z) * double(b[i].z);
+    }
+    return s;
+}
+
+/// filteredDot over every row, in chunks of kDotRows (partials added in chunk order, as dotAll's).
+template <class S>
+double filteredDot(const std::vector<Vec3T<S>>& a, std::vector<Vec3T<S>>& b,
+                   const std::vector<std::uint8_t>& fixed, WorkerPool& pool) {
+    return pool.sum(a.size(), kDotRows, 0.0,
+                    [&](std::size_t first, std::size_t end) { return filteredDot(a, b, fixed, first, end); });
+}
+
 template <class S>
 void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
     for (std::size_t i = 0; i < v.size(); ++i) {
@@ -175,7 +198,7 @@ void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
 }
 
 /// Rows per chunk of the solver's element-wise loops and products.
-constexpr std::size_t kRows = 2048;
+constexpr std::size_t kRows = 512;
 
 /// y = A x over the pool's threads.
 template <class S>
@@ -187,21 +210,29 @@ void multiplyShared(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& x, std
     });
 }
 
-/// Greedy colouring of the blocks of kSmoothBlock rows, in block order: each block takes the lowest colour
+/// Rows per block of a coloured level: kSmoothBlock, or an eighth of the level if that is fewer (so a level
+/// of a few thousand rows still has blocks enough to share out evenly). Fixed by the level's size.
+std::uint32_t smoothBlockRows(std::uint32_t n) {
+    return std::min(kSmoothBlock, (n + 7) / 8);
+}
+
+/// Greedy colouring of a level's blocks of `rows` rows, in block order: each block takes the lowest colour
 /// none of its earlier neighbours has (a neighbour: a block holding a column of one of its rows). A grid
-/// numbered row by row couples only nearby blocks, so two or three colours do. Fixed by the pattern.
+/// numbered row by row couples only nearby blocks, so two or three colours do. Then each row's
+/// off-diagonal blocks listed as the sweep meets them (SweepOrder): those of rows swept before it (an
+/// earlier colour, or its own block left of it) first. Fixed by the pattern.
 template <class S>
-void colourBlocks(const BlockMatrix<S>& a, std::vector<std::uint32_t>& start,
-                  std::vector<std::uint32_t>& blocks) {
-    const std::uint32_t count = (a.n + kSmoothBlock - 1) / kSmoothBlock;
+void colourBlocks(const BlockMatrix<S>& a, std::uint32_t rows, std::vector<std::uint32_t>& start,
+                  std::vector<std::uint32_t>& blocks, kernels::SweepOrder& order) {
+    const std::uint32_t count = (a.n + rows - 1) / rows;
     std::vector<std::uint32_t> colour(count, 0);
     std::vector<std::uint8_t> used;
     std::uint32_t colours = 0;
     for (std::uint32_t k = 0; k < count; ++k) {
         used.assign(std::size_t(colours) + 1, 0);
-        for (std::uint32_t i = k * kSmoothBlock; i < std::min(a.n, (k + 1) * kSmoothBlock); ++i) {
+        for (std::uint32_t i = k * rows; i < std::min(a.n, (k + 1) * rows); ++i) {
             for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
-                const std::uint32_t other = a.col[b] / kSmoothBlock;
+                const std::uint32_t other = a.col[b] / rows;
                 if (other < k) {
                     used[colour[other]] = 1;
                 }
@@ -225,6 +256,26 @@ void colourBlocks(const BlockMatrix<S>& a, std::vector<std::uint32_t>& start,
     std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
     for (std::uint32_t k = 0; k < count; ++k) {
         blocks[next[colour[k]]++] = k;
+    }
+    // a block's neighbours have other colours, so "before" is an earlier colour or, in its own block, a
+    // lower row
+    order.items.clear();
+    order.split.resize(a.n);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        const std::uint32_t own = i / rows;
+        auto before = [&](std::uint32_t j) {
+            return j / rows == own ? j < i : colour[j / rows] < colour[own];
+        };
+        for (int pass = 0; pass < 2; ++pass) {
+            if (pass == 1) {
+                order.split[i] = std::uint32_t(order.items.size());
+            }
+            for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b) {
+                if (b != a.diag[i] && before(a.col[b]) == (pass == 0)) {
+                    order.items.push_back(b);
+                }
+            }
+        }
     }
 }
 
@@ -263,7 +314,9 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
     for (std::size_t l = 0; l < m_levels.size(); ++l) {
         const BlockMatrix<S>& a = l == 0 ? fine : m_levels[l - 1].a;
         if (a.n >= kColouredRows) {
-            colourBlocks(a, m_colours[l].start, m_colours[l].blocks);
+            Colouring& c = m_colours[l];
+            c.rows = smoothBlockRows(a.n);
+            colourBlocks(a, c.rows, c.start, c.blocks, c.order);
         }
     }
     m_built = true;
@@ -378,17 +431,22 @@ template <class S>
 void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
                                             const Colouring& colours, bool forward, const std::vector<Vec>& b,
                                             std::vector<Vec>& x, WorkerPool& pool) const {
-    // colour after colour, each colour's blocks at once, rows in order inside a block (forward; backward
-    // is the exact reverse order, so the V-cycle stays symmetric). A block reads other blocks of its
-    // colour nowhere, so any thread count gives the same bits.
+    // colour after colour, each colour's blocks at once, rows in order inside a block (forward, the first
+    // sweep from x = 0; backward is the exact reverse order, so the V-cycle stays symmetric). A block reads
+    // other blocks of its colour nowhere, so any thread count gives the same bits.
     const std::size_t count = colours.start.size() - 1;
     for (std::size_t k = 0; k < count; ++k) {
         const std::size_t c = forward ? k : count - 1 - k;
         const std::uint32_t first = colours.start[c];
         pool.forEach(colours.start[c + 1] - first, 1, [&](std::size_t at) {
             const std::uint32_t block = colours.blocks[first + at];
-            const std::uint32_t begin = block * kSmoothBlock, end = std::min(a.n, begin + kSmoothBlock);
-            kernels::smoothRows(a, dinv.data(), b.data(), x.data(), begin, end, forward);
+            const std::uint32_t begin = block * colours.rows, end = std::min(a.n, begin + colours.rows);
+            if (forward) {
+                // the first sweep, from zero: only the blocks of rows swept before a row count
+                kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), begin, end, &colours.order);
+            } else {
+                kernels::smoothRows(a, dinv.data(), b.data(), x.data(), begin, end, false);
+            }
         });
     }
 }
@@ -413,14 +471,10 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     };
     const bool coloured = !m_colours[level].start.empty();
     if (coloured) {
-        // forward by colour from x = 0, then the residual b - A x
-        std::fill(x.begin(), x.end(), Vec{});
+        // forward by colour from x = 0, then the residual (the blocks of rows swept after a row only)
         smoothColours(a, dinv, m_colours[level], true, b, x, pool);
         rowChunks([&](std::uint32_t first, std::uint32_t end) {
-            kernels::multiplyRows(a, x.data(), r.data(), first, end);
-            for (std::uint32_t i = first; i < end; ++i) {
-                r[i] = b[i] - r[i];
-            }
+            kernels::residualAfterForward(a, x.data(), r.data(), first, end, &m_colours[level].order);
         });
     } else {
         // forward row after row from x = 0, then the residual (blocks right of the diagonal only)
@@ -480,13 +534,14 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
     filter(r, fixed);
     double rnorm = std::sqrt(dotAll(r, r, pool));
     preconditioner.apply(r, z, pool);
-    filter(z, fixed);
+    double rz = filteredDot(r, z, fixed, pool);
     p = z;
-    double rz = dotAll(r, z, pool);
     while (rnorm > tol * bnorm && stats.iterations < maxIterations) {
-        multiplyShared(a, p, ap, pool);
-        filter(ap, fixed);
-        const double pap = dotAll(p, ap, pool);
+        // A p with the fixed rows zeroed, and p . A p, in one pass
+        const double pap = pool.sum(n, kDotRows, 0.0, [&](std::size_t first, std::size_t end) {
+            kernels::multiplyRows(a, p.data(), ap.data(), std::uint32_t(first), std::uint32_t(end));
+            return filteredDot(p, ap, fixed, first, end);
+        });
         if (!(pap > 0.0)) {
             break; // lost positive definiteness to round-off: keep what we have
         }
@@ -507,11 +562,10 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
             break;
         }
         preconditioner.apply(r, z, pool);
-        filter(z, fixed);
-        const double rzNext = dotAll(r, z, pool);
+        const double rzNext = filteredDot(r, z, fixed, pool);
         const S beta = S(rzNext / rz);
         rz = rzNext;
-        pool.forChunks(n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
+        pool.forChunks(n, kDotRows, [&](std::size_t, std::size_t first, std::size_t end) {
             for (std::size_t i = first; i < end; ++i) {
                 p[i] = z[i] + p[i] * beta;
             }

@@ -30,6 +30,7 @@
 // read rows as rows, so an fem body solves in float only.
 
 #include "engine/parallel.h"
+#include "systems/block_kernels.h"
 #include "systems/block_sparse.h"
 
 #include <cstddef>
@@ -85,11 +86,14 @@ private:
         std::vector<Vec> x, b, r;     ///< work vectors
     };
 
-    /// The level's rows cut into blocks of kSmoothBlock consecutive rows, the blocks grouped by colour: no
-    /// two blocks of a colour share a matrix block, so a colour's blocks can be smoothed at once, each
-    /// row after row inside. blocks[start[c] .. start[c + 1]) are colour c's, in order.
+    /// The level's rows cut into blocks of `rows` consecutive rows, the blocks grouped by colour: no two
+    /// blocks of a colour share a matrix block, so a colour's blocks can be smoothed at once, each row
+    /// after row inside. blocks[start[c] .. start[c + 1]) are colour c's, in order; `order` lists each
+    /// row's blocks as the forward sweep meets them (for the sweep from zero and the residual after it).
     struct Colouring {
+        std::uint32_t rows = 0;
         std::vector<std::uint32_t> start, blocks;
+        kernels::SweepOrder order;
     };
 
     void build(const BlockMatrix<S>& fine);
@@ -136,12 +140,13 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
                     AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed,
                     double tol, int maxIterations, PcgVectors<S>& work, WorkerPool& pool = serialPool());
 
-/// Rows per chunk of the solver's dot products (a system this small or smaller sums in plain index order).
-constexpr std::size_t kDotRows = 2048;
+/// Rows per chunk of the solver's dot products (a system this small or smaller sums in plain index order),
+/// products and vector updates.
+constexpr std::size_t kDotRows = 512;
 /// A multigrid level of this many rows or more is smoothed by multicolour block Gauss-Seidel (blocks of
-/// kSmoothBlock rows, a colour's blocks shared out over threads, rows in order inside a block); a smaller
-/// one row after row, as one block.
-constexpr std::uint32_t kColouredRows = 4096;
+/// kSmoothBlock rows, or an eighth of the level if fewer; a colour's blocks shared out over threads, rows
+/// in order inside a block); a smaller one row after row, as one block.
+constexpr std::uint32_t kColouredRows = 1024;
 constexpr std::uint32_t kSmoothBlock = 256;
 
 extern template class AggregationMultigrid<float>;

@@ -170,6 +170,81 @@ TEST(BlockKernels, SweepsAreGaussSeidelInDouble) {
     }
 }
 
+/// The sweep order (kernels::SweepOrder) of visiting the rows in the order `visit`, built here from its
+/// definition: row i's off-diagonal blocks of rows visited before it, then those visited after it.
+kernels::SweepOrder sweepOrder(const BlockMatrix<float>& a, const std::vector<std::uint32_t>& visit) {
+    std::vector<std::uint32_t> position(a.n);
+    for (std::uint32_t k = 0; k < a.n; ++k) {
+        position[visit[k]] = k;
+    }
+    kernels::SweepOrder order;
+    order.split.resize(a.n);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        for (bool before : {true, false}) {
+            if (!before) {
+                order.split[i] = std::uint32_t(order.items.size());
+            }
+            for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[i + 1]; ++bl) {
+                if (a.col[bl] != i && (position[a.col[bl]] < position[i]) == before) {
+                    order.items.push_back(bl);
+                }
+            }
+        }
+    }
+    return order;
+}
+
+TEST(BlockKernels, ASweepFromZeroInAnyOrderIsGaussSeidelInThatOrder) {
+    // the order a coloured level is swept in: here a random one, row by row
+    const BlockMatrix<float> a = randomMatrix(kRows, 11);
+    const auto b = randomVector(kRows, 12);
+    std::vector<Mat3T<float>> dinv(kRows);
+    for (std::uint32_t i = 0; i < kRows; ++i) {
+        dinv[i] = a.val[a.diag[i]].inverse();
+    }
+    std::vector<std::uint32_t> visit(kRows);
+    for (std::uint32_t k = 0; k < kRows; ++k) {
+        visit[k] = k;
+    }
+    Rng rng(13);
+    for (std::uint32_t k = kRows - 1; k > 0; --k) {
+        std::swap(visit[k], visit[std::uint32_t(rng.uniform(0.0, double(k) + 0.999))]);
+    }
+    const kernels::SweepOrder order = sweepOrder(a, visit);
+    // the reference: Gauss-Seidel from zero in the visiting order, every block of the row, in double
+    std::vector<Vec3> want(kRows);
+    for (std::uint32_t i : visit) {
+        Vec3 s{b[i].x, b[i].y, b[i].z};
+        for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[i + 1]; ++bl) {
+            if (a.col[bl] != i) {
+                const Vec3& xj = want[a.col[bl]];
+                s -= times(a.val[bl], {float(xj.x), float(xj.y), float(xj.z)});
+            }
+        }
+        want[i] = times(dinv[i], {float(s.x), float(s.y), float(s.z)});
+    }
+    auto sweep = [&] {
+        std::vector<Vec3T<float>> x(kRows, Vec3T<float>{1e6f, 1e6f, 1e6f}); // not read before written
+        for (std::uint32_t i : visit) {
+            kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), i, i + 1, &order);
+        }
+        std::vector<Vec3T<float>> r(kRows);
+        kernels::residualAfterForward(a, x.data(), r.data(), 0, kRows, &order);
+        x.insert(x.end(), r.begin(), r.end());
+        return x;
+    };
+    const std::vector<Vec3T<float>> got = sweep();
+    for (std::uint32_t i = 0; i < kRows; ++i) {
+        expectClose(got[i], want[i], 1.0, "row " + std::to_string(i));
+        Vec3 residual{b[i].x, b[i].y, b[i].z};
+        for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[i + 1]; ++bl) {
+            residual -= times(a.val[bl], got[a.col[bl]]);
+        }
+        expectClose(got[kRows + i], residual, 40.0, "residual row " + std::to_string(i));
+    }
+    expectSameBits(sweep, "a sweep in another order and its residual");
+}
+
 TEST(BlockKernels, Sse2AndAvx2GiveTheSameBits) {
     const BlockMatrix<float> a = randomMatrix(kRows, 5);
     const auto x0 = randomVector(kRows, 6), b = randomVector(kRows, 7);
