@@ -197,8 +197,9 @@ void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
     }
 }
 
-/// Rows per chunk of the solver's element-wise loops and products.
-constexpr std::size_t kRows = 512;
+/// Rows per chunk of the solver's element-wise loops and products: those of its dot products, so that a
+/// product and a dot product can share one pass.
+constexpr std::size_t kRows = kDotRows;
 
 /// y = A x over the pool's threads.
 template <class S>

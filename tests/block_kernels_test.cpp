@@ -106,6 +106,19 @@ void expectSameBits(const std::function<std::vector<Vec3T<float>>()>& fn, const 
 
 constexpr std::uint32_t kRows = 333;
 
+/// The reference Gauss-Seidel update of row i, in double: x_i = D_i^-1 (b_i - sum_{j != i} A_ij x_j).
+void gaussSeidelRow(const BlockMatrix<float>& a, const std::vector<Mat3T<float>>& dinv,
+                    const std::vector<Vec3T<float>>& b, std::vector<Vec3>& x, std::uint32_t i) {
+    Vec3 s{b[i].x, b[i].y, b[i].z};
+    for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[i + 1]; ++bl) {
+        if (a.col[bl] != i) {
+            const Vec3& xj = x[a.col[bl]];
+            s -= times(a.val[bl], {float(xj.x), float(xj.y), float(xj.z)});
+        }
+    }
+    x[i] = times(dinv[i], {float(s.x), float(s.y), float(s.z)});
+}
+
 TEST(BlockKernels, ProductMatchesAPlainSumInDouble) {
     const BlockMatrix<float> a = randomMatrix(kRows, 1);
     const auto x = randomVector(kRows, 2);
@@ -130,15 +143,7 @@ TEST(BlockKernels, SweepsAreGaussSeidelInDouble) {
     // the reference: x_i = D_i^-1 (b_i - sum_{j != i} A_ij x_j), row after row, in double
     auto reference = [&](std::vector<Vec3> x, bool forward) {
         for (std::uint32_t k = 0; k < kRows; ++k) {
-            const std::uint32_t i = forward ? k : kRows - 1 - k;
-            Vec3 s{b[i].x, b[i].y, b[i].z};
-            for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[i + 1]; ++bl) {
-                if (a.col[bl] != i) {
-                    const Vec3& xj = x[a.col[bl]];
-                    s -= times(a.val[bl], {float(xj.x), float(xj.y), float(xj.z)});
-                }
-            }
-            x[i] = times(dinv[i], {float(s.x), float(s.y), float(s.z)});
+            gaussSeidelRow(a, dinv, b, x, forward ? k : kRows - 1 - k);
         }
         return x;
     };
@@ -214,14 +219,7 @@ TEST(BlockKernels, ASweepFromZeroInAnyOrderIsGaussSeidelInThatOrder) {
     // the reference: Gauss-Seidel from zero in the visiting order, every block of the row, in double
     std::vector<Vec3> want(kRows);
     for (std::uint32_t i : visit) {
-        Vec3 s{b[i].x, b[i].y, b[i].z};
-        for (std::uint32_t bl = a.rowStart[i]; bl < a.rowStart[i + 1]; ++bl) {
-            if (a.col[bl] != i) {
-                const Vec3& xj = want[a.col[bl]];
-                s -= times(a.val[bl], {float(xj.x), float(xj.y), float(xj.z)});
-            }
-        }
-        want[i] = times(dinv[i], {float(s.x), float(s.y), float(s.z)});
+        gaussSeidelRow(a, dinv, b, want, i);
     }
     auto sweep = [&] {
         std::vector<Vec3T<float>> x(kRows, Vec3T<float>{1e6f, 1e6f, 1e6f}); // not read before written
