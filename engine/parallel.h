@@ -68,7 +68,7 @@ public:
     template <class F>
     void forChunks(std::size_t n, std::size_t grain, F&& fn) {
         const std::size_t chunks = chunkCount(n, grain);
-        if (chunks <= 1 || m_workers.empty() || chunks >= (std::size_t(1) << 32)) {
+        if (chunks <= 1 || m_workers.empty() || std::uint64_t(chunks) > 0xffffffffu) {
             // on one thread too, every chunk runs and the first error is rethrown after: the same state
             std::exception_ptr error;
             for (std::size_t c = 0; c < chunks; ++c) {

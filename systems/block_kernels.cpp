@@ -5,6 +5,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <cassert>
 
 namespace tumble::kernels {
 
@@ -311,6 +312,7 @@ template <class S>
 void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                          std::uint32_t first, std::uint32_t end, const SweepOrder* order) {
     if (order) {
+        assert(order->split.size() == a.n && order->items.size() == a.col.size() - a.n);
         forwardWith(a, dinv, b, x, first, end, ListedBefore{a.rowStart.data(), *order});
     } else {
         forwardWith(a, dinv, b, x, first, end, BeforeBlocks<S>{a});
@@ -321,6 +323,7 @@ template <class S>
 void residualAfterForward(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
                           std::uint32_t end, const SweepOrder* order) {
     if (order) {
+        assert(order->split.size() == a.n && order->items.size() == a.col.size() - a.n);
         residualWith(a, x, r, first, end, ListedAfter{a.rowStart.data(), *order});
     } else {
         residualWith(a, x, r, first, end, AfterBlocks<S>{a});

@@ -36,9 +36,10 @@ struct SweepOrder {
     std::vector<std::uint32_t> items, split;
 };
 
-/// The first forward Gauss-Seidel sweep, from x = 0, over the rows [first, end): x_i = D_i^-1 (b_i -
-/// sum_{j before i} A_ij x_j) (the rows after i still hold zero, so only the blocks of the rows swept
-/// before it count: those left of the diagonal, or as `order` lists them).
+/// The first forward Gauss-Seidel sweep, as if from x = 0, over the rows [first, end): x_i = D_i^-1 (b_i -
+/// sum_{j before i} A_ij x_j), where the rows swept before i are those left of the diagonal, or those
+/// `order` lists first (built for this matrix's pattern). The rows after i would hold zero and are not
+/// read, so x need not be cleared: each x_i is written before any row reads it.
 template <class S>
 void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                          std::uint32_t first, std::uint32_t end, const SweepOrder* order = nullptr);

@@ -430,20 +430,21 @@ void AggregationMultigrid<S>::solveCoarsest(const std::vector<Vec>& b, std::vect
 
 template <class S>
 void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
-                                            const Colouring& colours, bool forward, const std::vector<Vec>& b,
-                                            std::vector<Vec>& x, WorkerPool& pool) const {
-    // colour after colour, each colour's blocks at once, rows in order inside a block (forward, the first
-    // sweep from x = 0; backward is the exact reverse order, so the V-cycle stays symmetric). A block reads
-    // other blocks of its colour nowhere, so any thread count gives the same bits.
+                                            const Colouring& colours, bool fromZero,
+                                            const std::vector<Vec>& b, std::vector<Vec>& x,
+                                            WorkerPool& pool) const {
+    // colour after colour, each colour's blocks at once, rows in order inside a block (forward: the first
+    // sweep, as if from x = 0; backward: the exact reverse order, so the V-cycle stays symmetric). A block
+    // reads other blocks of its colour nowhere, so any thread count gives the same bits.
     const std::size_t count = colours.start.size() - 1;
     for (std::size_t k = 0; k < count; ++k) {
-        const std::size_t c = forward ? k : count - 1 - k;
+        const std::size_t c = fromZero ? k : count - 1 - k;
         const std::uint32_t first = colours.start[c];
         pool.forEach(colours.start[c + 1] - first, 1, [&](std::size_t at) {
             const std::uint32_t block = colours.blocks[first + at];
             const std::uint32_t begin = block * colours.rows, end = std::min(a.n, begin + colours.rows);
-            if (forward) {
-                // the first sweep, from zero: only the blocks of rows swept before a row count
+            if (fromZero) {
+                // only the blocks of rows swept before a row count (x is not cleared: none other is read)
                 kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), begin, end, &colours.order);
             } else {
                 kernels::smoothRows(a, dinv.data(), b.data(), x.data(), begin, end, false);
@@ -472,13 +473,13 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     };
     const bool coloured = !m_colours[level].start.empty();
     if (coloured) {
-        // forward by colour from x = 0, then the residual (the blocks of rows swept after a row only)
+        // forward by colour as if from x = 0, then the residual (the blocks of rows swept after a row only)
         smoothColours(a, dinv, m_colours[level], true, b, x, pool);
         rowChunks([&](std::uint32_t first, std::uint32_t end) {
             kernels::residualAfterForward(a, x.data(), r.data(), first, end, &m_colours[level].order);
         });
     } else {
-        // forward row after row from x = 0, then the residual (blocks right of the diagonal only)
+        // forward row after row as if from x = 0, then the residual (blocks right of the diagonal only)
         kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), 0, a.n);
         rowChunks([&](std::uint32_t first, std::uint32_t end) {
             kernels::residualAfterForward(a, x.data(), r.data(), first, end);

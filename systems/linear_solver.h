@@ -18,8 +18,8 @@
 // Why the rows stay in their own order: numbering a level colour by colour (multicolour Gauss-Seidel, every
 // row of a colour at once) was tried and took 20% more iterations on a 100 x 100 cloth (23 -> 28, and 40
 // when the pairing also visited rows in colour order), which ate what the sweeps gained; so large levels
-// are coloured by blocks of kSmoothBlock consecutive rows instead, which keeps nearly the convergence of
-// sweeping row after row.
+// are coloured by blocks of consecutive rows instead (kSmoothBlock, or an eighth of the level if fewer),
+// which keeps nearly the convergence of sweeping row after row.
 //
 // How blocks are read: the kernels apply a stored block's rows as its columns (A v = row0 v.x + row1 v.y +
 // row2 v.z, three broadcasts), and so does the dense factor of the coarsest level. For the springs it makes
@@ -97,8 +97,10 @@ private:
     };
 
     void build(const BlockMatrix<S>& fine);
+    /// The first forward sweep, as if from x = 0 (fromZero), or a backward sweep from x as it is, colour by
+    /// colour.
     void smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv, const Colouring& colours,
-                       bool forward, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool) const;
+                       bool fromZero, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool) const;
     void cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool);
     void factorCoarsest();
     bool factorDense(std::size_t dim, double shift);

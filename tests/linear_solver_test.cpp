@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <limits>
 
 namespace tumble {
 namespace {
@@ -95,6 +96,38 @@ TEST(AggregationMultigrid, TheColouredVCycleIsSymmetricAndPositiveAndSharesOutWi
         EXPECT_EQ(std::memcmp(shared.data(), mx.data(), mx.size() * sizeof(mx[0])), 0)
             << threads << " threads";
     }
+}
+
+TEST(AggregationMultigrid, TheCurtainIsSweptByColourAndReadsNoValueLeftInTheOutput) {
+    // 35 x 35 = 1225 rows: coloured in eight blocks of 154 rows. The sweep from zero does not clear z: a
+    // V-cycle into a vector full of NaN (or of the last answer) must give the same bits as into an empty one
+    std::vector<std::uint8_t> pinned;
+    const BlockMatrix<float> a = clothMatrix<float>(35, pinned);
+    AggregationMultigrid<float> mg;
+    mg.update(a);
+    ASSERT_GE(mg.colours(0), 2u) << "the curtain's fine level should be coloured";
+    const auto x = randomVector<float>(a.n, 3, pinned), y = randomVector<float>(a.n, 4, pinned);
+    std::vector<Vec3T<float>> clean;
+    mg.apply(x, clean);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (int threads : {1, 2, 3, 7}) {
+        WorkerPool pool(threads);
+        std::vector<Vec3T<float>> dirty(a.n, Vec3T<float>{nan, nan, nan});
+        mg.apply(x, dirty, pool);
+        ASSERT_EQ(dirty.size(), clean.size());
+        EXPECT_EQ(std::memcmp(dirty.data(), clean.data(), clean.size() * sizeof(clean[0])), 0)
+            << threads << " threads, from NaN";
+        std::vector<Vec3T<float>> reused;
+        mg.apply(y, reused, pool);
+        mg.apply(x, reused, pool); // over the answer for y
+        EXPECT_EQ(std::memcmp(reused.data(), clean.data(), clean.size() * sizeof(clean[0])), 0)
+            << threads << " threads, over another answer";
+    }
+    // and it is still a symmetric positive preconditioner
+    std::vector<Vec3T<float>> my;
+    mg.apply(y, my);
+    EXPECT_NEAR(dotv(clean, y), dotv(x, my), 1e-5 * std::abs(dotv(clean, y)));
+    EXPECT_GT(dotv(clean, x), 0.0);
 }
 
 template <class S>
