@@ -106,6 +106,15 @@ void expectSameBits(const std::function<std::vector<Vec3T<float>>()>& fn, const 
 
 constexpr std::uint32_t kRows = 333;
 
+/// The inverses of a matrix's diagonal blocks (the sweeps' dinv).
+std::vector<Mat3T<float>> diagonalInverses(const BlockMatrix<float>& a) {
+    std::vector<Mat3T<float>> dinv(a.n);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        dinv[i] = a.val[a.diag[i]].inverse();
+    }
+    return dinv;
+}
+
 /// The reference Gauss-Seidel update of row i, in double: x_i = D_i^-1 (b_i - sum_{j != i} A_ij x_j).
 void gaussSeidelRow(const BlockMatrix<float>& a, const std::vector<Mat3T<float>>& dinv,
                     const std::vector<Vec3T<float>>& b, std::vector<Vec3>& x, std::uint32_t i) {
@@ -136,10 +145,7 @@ TEST(BlockKernels, ProductMatchesAPlainSumInDouble) {
 TEST(BlockKernels, SweepsAreGaussSeidelInDouble) {
     const BlockMatrix<float> a = randomMatrix(kRows, 3);
     const auto b = randomVector(kRows, 4);
-    std::vector<Mat3T<float>> dinv(kRows);
-    for (std::uint32_t i = 0; i < kRows; ++i) {
-        dinv[i] = a.val[a.diag[i]].inverse();
-    }
+    const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
     // the reference: x_i = D_i^-1 (b_i - sum_{j != i} A_ij x_j), row after row, in double
     auto reference = [&](std::vector<Vec3> x, bool forward) {
         for (std::uint32_t k = 0; k < kRows; ++k) {
@@ -203,10 +209,7 @@ TEST(BlockKernels, ASweepFromZeroInAnyOrderIsGaussSeidelInThatOrder) {
     // the order a coloured level is swept in: here a random one, row by row
     const BlockMatrix<float> a = randomMatrix(kRows, 11);
     const auto b = randomVector(kRows, 12);
-    std::vector<Mat3T<float>> dinv(kRows);
-    for (std::uint32_t i = 0; i < kRows; ++i) {
-        dinv[i] = a.val[a.diag[i]].inverse();
-    }
+    const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
     std::vector<std::uint32_t> visit(kRows);
     for (std::uint32_t k = 0; k < kRows; ++k) {
         visit[k] = k;
@@ -246,10 +249,7 @@ TEST(BlockKernels, ASweepFromZeroInAnyOrderIsGaussSeidelInThatOrder) {
 TEST(BlockKernels, Sse2AndAvx2GiveTheSameBits) {
     const BlockMatrix<float> a = randomMatrix(kRows, 5);
     const auto x0 = randomVector(kRows, 6), b = randomVector(kRows, 7);
-    std::vector<Mat3T<float>> dinv(kRows);
-    for (std::uint32_t i = 0; i < kRows; ++i) {
-        dinv[i] = a.val[a.diag[i]].inverse();
-    }
+    const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
     expectSameBits(
         [&] {
             std::vector<Vec3T<float>> y(kRows);
