@@ -29,9 +29,6 @@ void buildLists(std::size_t lists, std::size_t items, std::size_t perItem, Of&& 
     }
 }
 
-/// Items per chunk of the force loops.
-constexpr std::size_t kMassGrain = 512, kLinkGrain = 2048, kTriangleGrain = 1024;
-
 /// Whether a loop over `items` shares out: computed per item and gathered per mass, which gives exactly
 /// the bits of the plain scatter and pays only when it runs on several threads.
 bool shareOut(const WorkerPool& pool, std::size_t items, std::size_t grain) {

@@ -17,6 +17,7 @@
 #include "components/spring_network.h"
 #include "systems/block_sparse.h"
 
+#include <cstddef>
 #include <vector>
 
 namespace tumble {
@@ -25,6 +26,10 @@ class WorkerPool;
 } // namespace tumble
 
 namespace tumble {
+
+/// Items per chunk of the per-mass, per-link and per-triangle loops (the force loops and implicit Euler's
+/// assembly): fixed, so the chunks do not depend on the thread count.
+constexpr std::size_t kMassGrain = 512, kLinkGrain = 2048, kTriangleGrain = 1024;
 
 /// What acts on a network besides its springs.
 struct Environment {

@@ -139,7 +139,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     std::vector<Mat3>& diagonal = w.sums; // double accumulation of the diagonal blocks
     diagonal.resize(n);
     rhs.resize(n);
-    pool.forEach(net.links.size(), 2048, [&](std::size_t k) {
+    pool.forEach(net.links.size(), kLinkGrain, [&](std::size_t k) {
         const SpringLink& s = net.links[k];
         LinkTerms& t = w.terms[k];
         Mat3 stiff;
@@ -156,7 +156,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         t.block = Mat3::outer(u, h * s.kd);
         t.block += scaled(stiff, h * h);
     });
-    pool.forEach(n, 512, [&](std::size_t i) {
+    pool.forEach(n, kMassGrain, [&](std::size_t i) {
         const double m = 1.0 / net.invMass[i];
         Mat3 d = Mat3::identity(m + h * massDamping(net, env, net.x[i]));
         Vec3 r = work.f[i] * h;
@@ -190,7 +190,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
         a.val[b] = Mat3T<S>{};
     }
     w.rhs.resize(n);
-    pool.forEach(n, 512, [&](std::size_t i) {
+    pool.forEach(n, kMassGrain, [&](std::size_t i) {
         if (net.pinned[i]) {
             a.val[a.diag[i]] = Mat3T<S>::identity();
             w.rhs[i] = Vec3T<S>{};
@@ -204,7 +204,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     w.multigrid.update(a, pool);
     const SolveStats stats =
         solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg, pool);
-    pool.forEach(n, 512, [&](std::size_t i) {
+    pool.forEach(n, kMassGrain, [&](std::size_t i) {
         if (!net.pinned[i]) {
             net.v[i] += w.dv[i].toVec3();
             net.x[i] += net.v[i] * h;
