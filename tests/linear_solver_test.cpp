@@ -11,6 +11,8 @@
 
 #include <cstring>
 #include <limits>
+#include <set>
+#include <stdexcept>
 
 namespace tumble {
 namespace {
@@ -168,6 +170,40 @@ TEST(Pcg, SolvesACurtainSystemInFloat) {
 
 TEST(Pcg, IterationsStayLowOnALargeCloth) {
     solvesCloth<float>(100, 1e-3, 25);
+}
+
+// The pattern from pairs against a set built from them: both orientations, the diagonal, each row sorted
+// and unique, the diagonal's index right; an index past the matrix refused.
+TEST(BlockMatrix, APatternFromPairsHoldsBothOrientationsAndTheDiagonalOnceEach) {
+    Rng rng(7);
+    const std::uint32_t n = 300;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    std::set<std::pair<std::uint32_t, std::uint32_t>> expected;
+    for (std::uint32_t i = 0; i < n; ++i) {
+        expected.emplace(i, i);
+    }
+    for (int k = 0; k < 4000; ++k) {
+        // few distinct columns per row, so that repeats and both orientations both occur
+        const auto i = std::uint32_t(rng.uniform(0.0, double(n))) % n;
+        const auto j = (i + std::uint32_t(rng.uniform(0.0, 6.0)) % 6 + n - 3) % n;
+        pairs.emplace_back(i, j);
+        expected.emplace(i, j);
+        expected.emplace(j, i);
+    }
+    const BlockMatrix<float> a = BlockMatrix<float>::fromPairs(n, pairs);
+    ASSERT_EQ(a.n, n);
+    ASSERT_EQ(a.col.size(), expected.size());
+    ASSERT_EQ(a.val.size(), expected.size());
+    auto it = expected.begin();
+    for (std::uint32_t i = 0; i < n; ++i) {
+        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b, ++it) {
+            EXPECT_EQ(std::make_pair(i, a.col[b]), *it);
+        }
+        EXPECT_EQ(a.col[a.diag[i]], i);
+        EXPECT_EQ(a.find(i, i), a.diag[i]);
+    }
+    EXPECT_THROW(BlockMatrix<float>::fromPairs(n, {{0, n}}), std::out_of_range);
+    EXPECT_THROW(BlockMatrix<float>::fromPairs(n, {{n + 5, 1}}), std::out_of_range);
 }
 
 } // namespace
