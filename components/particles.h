@@ -5,7 +5,8 @@
 // fill, in order.
 //
 // Particles are light: float state, no mass of their own (forces act on them as on a 1 kg body), colour
-// and size derived from age over lifetime, so the pool holds nothing the renderer cannot compute.
+// and size derived from the fraction of its life lived, so the pool holds nothing the renderer cannot
+// compute.
 
 #include "engine/entity.h"
 #include "engine/math.h"
@@ -25,9 +26,15 @@ enum class EmitterShape : std::uint8_t { Point, Sphere, Disc, Box };
 struct ParticlePool {
     std::vector<float> px, py, pz; ///< m, positions
     std::vector<float> vx, vy, vz; ///< m/s, velocities
-    std::vector<float> age;        ///< s since birth
-    std::vector<float> lifetime;   ///< s; the particle dies when age reaches it
-    std::uint32_t count = 0;       ///< live particles (the arrays are sized to the emitter's capacity)
+    // Ages are counted in the pool's own steps, not summed in float: a particle is born at `birthStep`
+    // (the number of the first update that moves it) and dies in the update numbered `deathStep`, when
+    // its age, steps times dt, first reaches its lifetime. Step numbers wrap at 2^32 (compared as
+    // differences), and a life is at most 2^31 - 1 steps. The update reads `deathStep` alone and writes no
+    // age: the pool's streaming update moves 13 arrays' worth of bytes a particle, not 15.
+    std::vector<std::uint32_t> birthStep; ///< the pool's step at birth
+    std::vector<std::uint32_t> deathStep; ///< the pool's step in whose update the particle dies
+    std::uint32_t count = 0;              ///< live particles (the arrays are sized to the emitter's capacity)
+    std::uint32_t clock = 0;              ///< updates done (mod 2^32): the number of the next one
     // scratch of the update (not state)
     std::vector<std::uint32_t> deadGroups; ///< groups of four with a death, each chunk's in its own stretch
     std::vector<std::uint32_t> deadCounts; ///< per chunk: how many groups it listed

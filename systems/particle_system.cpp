@@ -174,8 +174,12 @@ bool emitterRows(const ParticleEmitter& e, std::string_view field, Catalog::Rows
 void hashEmitter(const ParticleEmitter& e, Hasher& h) {
     const ParticlePool& p = e.pool;
     h.add(p.count);
-    for (const std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+    h.add(p.clock);
+    for (const std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz}) {
         h.bytes(a->data(), std::size_t(p.count) * sizeof(float));
+    }
+    for (const std::vector<std::uint32_t>* a : {&p.birthStep, &p.deathStep}) {
+        h.bytes(a->data(), std::size_t(p.count) * sizeof(std::uint32_t));
     }
     h.add(e.seed);
     h.add(e.def.rate);
@@ -239,9 +243,11 @@ void applyFields(ParticlePool& p, const std::vector<ForceField>& fields, float d
 } // namespace
 
 void reserveParticles(ParticlePool& p, std::uint32_t capacity) {
-    for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+    for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz}) {
         a->assign(capacity, 0.0f);
     }
+    p.birthStep.assign(capacity, 0);
+    p.deathStep.assign(capacity, 0);
     p.deadGroups.assign(capacity / 4 + 1, 0);
     const std::size_t chunks = std::max<std::size_t>(1, WorkerPool::chunkCount(capacity, kParticleGrain));
     p.deadCounts.assign(chunks, 0);
@@ -252,8 +258,17 @@ void reserveParticles(ParticlePool& p, std::uint32_t capacity) {
 
 namespace {
 
+/// The updates a particle of this lifetime lives through: the first count of steps whose time reaches
+/// it (a count within a relative 1e-9 of a whole number taken as that number, so 2 s at dt = 0.01 is 200
+/// steps, not 201), at least one and at most 2^31 - 1 (step numbers are compared as 32-bit differences).
+std::uint32_t lifeSteps(double life, double dt) {
+    const double steps = life / dt;
+    const double whole = std::ceil(steps - 1e-9 * std::max(1.0, steps));
+    return static_cast<std::uint32_t>(std::clamp(whole, 1.0, double(0x7fffffff)));
+}
+
 /// One birth: where on the emitter's shape, which way in its cone, how fast, how long it lives.
-void bear(const ParticleEmitter& e, const Vec3& t1, const Vec3& t2, double cosSpread, Rng& rng,
+void bear(const ParticleEmitter& e, const Vec3& t1, const Vec3& t2, double cosSpread, double dt, Rng& rng,
           ParticlePool& p, std::uint32_t i) {
     const EmitterDef& d = e.def;
     Vec3 at = e.origin;
@@ -296,8 +311,8 @@ void bear(const ParticleEmitter& e, const Vec3& t1, const Vec3& t2, double cosSp
     p.vx[i] = float(dir.x * speed);
     p.vy[i] = float(dir.y * speed);
     p.vz[i] = float(dir.z * speed);
-    p.age[i] = 0.0f;
-    p.lifetime[i] = float(life);
+    p.birthStep[i] = p.clock;
+    p.deathStep[i] = p.clock + lifeSteps(life, dt) - 1;
 }
 
 /// Births per chunk of the parallel births (each about 0.2 us).
@@ -305,7 +320,7 @@ constexpr std::size_t kBirthGrain = 1024;
 
 } // namespace
 
-void spawnParticles(ParticleEmitter& e, std::uint64_t n, WorkerPool& pool) {
+void spawnParticles(ParticleEmitter& e, std::uint64_t n, double dt, WorkerPool& pool) {
     ParticlePool& p = e.pool;
     const auto room = static_cast<std::uint64_t>(p.px.size() - p.count);
     if (n > room) {
@@ -318,13 +333,19 @@ void spawnParticles(ParticleEmitter& e, std::uint64_t n, WorkerPool& pool) {
     const std::uint32_t first = p.count;
     pool.forEach(n, kBirthGrain, [&](std::size_t k) {
         Rng rng = birthStream(e.seed, e.born + k);
-        bear(e, t1, t2, cosSpread, rng, p, first + static_cast<std::uint32_t>(k));
+        bear(e, t1, t2, cosSpread, dt, rng, p, first + static_cast<std::uint32_t>(k));
     });
     p.count += static_cast<std::uint32_t>(n);
     e.born += n;
 }
 
 namespace {
+
+/// Whether particle i dies in the pool's update now under way (number p.clock): its step of death has come,
+/// compared as a 32-bit difference so that step numbers may wrap.
+bool diesNow(const ParticlePool& p, std::uint32_t i) {
+    return std::int32_t(p.deathStep[i] - p.clock) <= 0;
+}
 
 /// The update of advanceChunk eight particles at a time, for groups of eight in [begin, whole): the same
 /// operations on each lane as the four-wide loop (so the same bits), and the groups of four with a death
@@ -333,6 +354,7 @@ __attribute__((target("avx2"))) std::uint32_t advanceEights(ParticlePool& p, std
                                                             std::uint32_t whole, const Vec3& gravity,
                                                             float keepScalar, float dt, std::uint32_t* dead,
                                                             std::uint32_t& listed, std::uint32_t& deaths) {
+    const __m256i now = _mm256_set1_epi32(int(p.clock));
     const __m256 keep = _mm256_set1_ps(keepScalar);
     const __m256 gx = _mm256_set1_ps(float(gravity.x) * dt), gy = _mm256_set1_ps(float(gravity.y) * dt),
                  gz = _mm256_set1_ps(float(gravity.z) * dt);
@@ -348,9 +370,11 @@ __attribute__((target("avx2"))) std::uint32_t advanceEights(ParticlePool& p, std
         _mm256_storeu_ps(&p.px[i], _mm256_add_ps(_mm256_loadu_ps(&p.px[i]), _mm256_mul_ps(vx, step)));
         _mm256_storeu_ps(&p.py[i], _mm256_add_ps(_mm256_loadu_ps(&p.py[i]), _mm256_mul_ps(vy, step)));
         _mm256_storeu_ps(&p.pz[i], _mm256_add_ps(_mm256_loadu_ps(&p.pz[i]), _mm256_mul_ps(vz, step)));
-        const __m256 age = _mm256_add_ps(_mm256_loadu_ps(&p.age[i]), step);
-        _mm256_storeu_ps(&p.age[i], age);
-        const int died = _mm256_movemask_ps(_mm256_cmp_ps(age, _mm256_loadu_ps(&p.lifetime[i]), _CMP_NLT_US));
+        // alive while deathStep - now > 0 as a 32-bit difference
+        const __m256i left =
+            _mm256_sub_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&p.deathStep[i])), now);
+        const int died =
+            ~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(left, _mm256_setzero_si256()))) & 0xff;
         if (died != 0) {
             deaths += std::uint32_t(__builtin_popcount(unsigned(died)));
             if (died & 0x0f) {
@@ -364,14 +388,15 @@ __attribute__((target("avx2"))) std::uint32_t advanceEights(ParticlePool& p, std
     return i;
 }
 
-/// The update of one chunk's particles: v' = v e^(-drag dt) + g dt, x' = x + v' dt, age' = age + dt; four
-/// particles per register. The drag factor is the exact decay over the step, so any drag is stable (1 -
-/// drag dt would not be past 2/dt). Lists the first index of each group of four with a death in `dead`
-/// (the group of the last few, past a multiple of four, too), in p.deadCounts[chunk] how many it listed
-/// and in p.deaths[chunk] how many died.
+/// The update of one chunk's particles: v' = v e^(-drag dt) + g dt, x' = x + v' dt, and those whose step
+/// of death this is die; four particles per register. The drag factor is the exact decay over the step, so
+/// any drag is stable (1 - drag dt would not be past 2/dt). Lists the first index of each group of four with
+/// a death in `dead` (the group of the last few, past a multiple of four, too), in p.deadCounts[chunk] how
+/// many it listed and in p.deaths[chunk] how many died.
 void advanceChunk(ParticlePool& p, std::size_t chunk, std::uint32_t begin, std::uint32_t end,
                   const Vec3& gravity, float keepScalar, float dt, bool avx2) {
     std::uint32_t* dead = &p.deadGroups[begin / 4];
+    const __m128i now = _mm_set1_epi32(int(p.clock));
     const __m128 keep = _mm_set1_ps(keepScalar);
     const __m128 gx = _mm_set1_ps(float(gravity.x) * dt), gy = _mm_set1_ps(float(gravity.y) * dt),
                  gz = _mm_set1_ps(float(gravity.z) * dt);
@@ -390,9 +415,9 @@ void advanceChunk(ParticlePool& p, std::size_t chunk, std::uint32_t begin, std::
         _mm_storeu_ps(&p.px[i], _mm_add_ps(_mm_loadu_ps(&p.px[i]), _mm_mul_ps(vx, step)));
         _mm_storeu_ps(&p.py[i], _mm_add_ps(_mm_loadu_ps(&p.py[i]), _mm_mul_ps(vy, step)));
         _mm_storeu_ps(&p.pz[i], _mm_add_ps(_mm_loadu_ps(&p.pz[i]), _mm_mul_ps(vz, step)));
-        const __m128 age = _mm_add_ps(_mm_loadu_ps(&p.age[i]), step);
-        _mm_storeu_ps(&p.age[i], age);
-        const int died = _mm_movemask_ps(_mm_cmpge_ps(age, _mm_loadu_ps(&p.lifetime[i])));
+        const __m128i left =
+            _mm_sub_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&p.deathStep[i])), now);
+        const int died = ~_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(left, _mm_setzero_si128()))) & 0xf;
         if (died != 0) {
             deaths += std::uint32_t(__builtin_popcount(unsigned(died)));
             dead[listed++] = i;
@@ -407,8 +432,7 @@ void advanceChunk(ParticlePool& p, std::size_t chunk, std::uint32_t begin, std::
         p.px[i] += p.vx[i] * dt;
         p.py[i] += p.vy[i] * dt;
         p.pz[i] += p.vz[i] * dt;
-        p.age[i] += dt;
-        deaths += p.age[i] >= p.lifetime[i] ? 1u : 0u;
+        deaths += diesNow(p, i) ? 1u : 0u;
     }
     if (deaths != before) {
         dead[listed++] = whole;
@@ -424,16 +448,18 @@ void fillHoles(ParticlePool& p, std::size_t chunk, std::uint32_t newCount, std::
     const std::uint32_t* dead = &p.deadGroups[chunk * (kParticleGrain / 4)];
     for (std::uint32_t g = 0; g < p.deadCounts[chunk]; ++g) {
         for (std::uint32_t i = dead[g]; i < std::min(dead[g] + 4, p.count); ++i) {
-            if (p.age[i] < p.lifetime[i]) {
+            if (!diesNow(p, i)) {
                 continue;
             }
             if (i >= newCount) {
                 return; // this death and those after it are past the new end
             }
             const std::uint32_t from = p.fillers[rank++];
-            for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
+            for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz}) {
                 (*a)[i] = (*a)[from];
             }
+            p.birthStep[i] = p.birthStep[from];
+            p.deathStep[i] = p.deathStep[from];
         }
     }
 }
@@ -458,18 +484,20 @@ std::uint32_t advanceParticles(ParticlePool& p, const Vec3& gravity, float drag,
         died += d;
     }
     if (died == 0) {
+        ++p.clock;
         return 0;
     }
     const std::uint32_t newCount = p.count - died;
     std::uint32_t fillers = 0;
     for (std::uint32_t i = newCount; i < p.count; ++i) {
-        if (p.age[i] < p.lifetime[i]) {
+        if (!diesNow(p, i)) {
             p.fillers[fillers++] = i;
         }
     }
     pool.forChunks(newCount, kParticleGrain,
                    [&](std::size_t c, std::size_t, std::size_t) { fillHoles(p, c, newCount, p.deaths[c]); });
     p.count = newCount;
+    ++p.clock;
     return died;
 }
 
@@ -485,7 +513,7 @@ void emitParticles(World& world, const StepContext& ctx) {
             births += due - e.rateBorn;
             e.rateBorn = due;
         }
-        spawnParticles(e, births, poolOr(ctx.pool));
+        spawnParticles(e, births, ctx.dt, poolOr(ctx.pool));
     });
 }
 

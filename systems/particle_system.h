@@ -38,15 +38,16 @@ void updateParticles(World& world, const StepContext& ctx);
 
 /// Gives birth to up to n particles (fewer when the pool fills; the rest are counted as dropped), in chunks
 /// over the pool's threads: each birth's draws are keyed by the emitter and the birth's number.
-void spawnParticles(ParticleEmitter& emitter, std::uint64_t n, WorkerPool& threads = serialPool());
+/// dt is the step's, which turns each particle's lifetime into the number of updates it lives through.
+void spawnParticles(ParticleEmitter& emitter, std::uint64_t n, double dt, WorkerPool& threads = serialPool());
 
 /// Sizes every array of a pool for `capacity` particles, once, at load: the update never allocates.
 void reserveParticles(ParticlePool& pool, std::uint32_t capacity);
 
-/// Ages the pool by dt, removes the particles whose lifetime is over, and advances the survivors under
-/// gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel, in chunks
-/// shared by the pool's threads; then the holes the dead leave below the new end are filled, in index
-/// order, by the survivors past it, also in chunks: the same bits at any thread count.
+/// Ages the pool by one step (p.clock), removes the particles whose lifetime is over, and advances the
+/// survivors under gravity and drag (acceleration g - drag v). Returns how many died. The vectorised kernel,
+/// in chunks shared by the pool's threads; then the holes the dead leave below the new end are filled, in
+/// index order, by the survivors past it, also in chunks: the same bits at any thread count.
 std::uint32_t advanceParticles(ParticlePool& pool, const Vec3& gravity, float drag, float dt,
                                WorkerPool& threads = serialPool());
 

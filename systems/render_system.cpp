@@ -1287,7 +1287,9 @@ void renderWorld(World& world, const StepContext& ctx) {
         const float back = float((std::min(ctx.alpha, 1.0) - 1.0) * ctx.dt);
         r.flat.resize(p.count);
         pool.forEach(p.count, kVertexGrain, [&](std::size_t i) {
-            const float life = p.lifetime[i] > 0.0f ? std::min(1.0f, p.age[i] / p.lifetime[i]) : 1.0f;
+            // the fraction of its life lived: steps since birth over the steps it lives through
+            const float life = std::min(1.0f, float(p.clock - p.birthStep[i]) /
+                                                  (float(p.deathStep[i] - p.birthStep[i]) + 1.0f));
             const auto c = particleColor(e.def, life);
             r.flat[i] = {p.px[i] + back * p.vx[i],
                          p.py[i] + back * p.vy[i],

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include <cmath>
@@ -70,15 +71,11 @@ TEST(ParticleSystem, RateBirthsAreExactIncludingFractions) {
 }
 
 TEST(ParticleSystem, SteadyStateCountIsExactlyTheBirthsOfALifetime) {
-    // 300 a second at dt = 0.01: 3 births a step. Each particle is born at the start of a step and aged by
-    // the float dt in that step and each after; it dies in the step its age reaches its lifetime of 2 s.
-    // So it lives through K - 1 steps, K the first count of float additions of dt that reaches 2, and
-    // after every step 3 (K - 1) are alive: exactly (a lifetime off by one step is 3 particles)
-    const float dt = 0.01f;
-    int K = 0;
-    for (float age = 0.0f; age < 2.0f; age += dt) {
-        ++K;
-    }
+    // 300 a second at dt = 0.01: 3 births a step. Each particle is born at the start of a step and updated
+    // in that step and each after; it dies in the update where its age, K dt, reaches its lifetime of 2 s:
+    // K = 200. So it outlives K - 1 steps, and after every step 3 (K - 1) are alive: exactly (a lifetime
+    // off by one step is 3 particles; ages summed in float took 201 steps to reach 2 s)
+    const int K = 200;
     auto sim = makeSimulation(scene("rate = 300.0\nlifetime = [2.0, 2.0]\ncollide = false"));
     for (int i = 0; i < 500; ++i) {
         sim->runFrame();
@@ -87,6 +84,27 @@ TEST(ParticleSystem, SteadyStateCountIsExactlyTheBirthsOfALifetime) {
         sim->runFrame();
         ASSERT_EQ(emitter(*sim).pool.count, std::uint32_t(3 * (K - 1))) << "K = " << K;
     }
+}
+
+TEST(ParticleSystem, ALongLifeEndsInTheStepItsAgeReachesIt) {
+    // 50 s at dt = 1/60 is 3000 steps: the particle of a burst is alive after 2999 and gone after 3000 (ages
+    // summed in float reached 50 s one step late; 1000 s, thirteen steps late)
+    auto sim = makeSimulation(
+        scene("burst = 1\nlifetime = [50.0, 50.0]\ncollide = false", "", "0.0166666666666666667"));
+    for (int i = 0; i < 2999; ++i) {
+        sim->runFrame();
+    }
+    EXPECT_EQ(emitter(*sim).pool.count, 1u);
+    sim->runFrame();
+    EXPECT_EQ(emitter(*sim).pool.count, 0u);
+    // 2.1 s at dt = 0.3 is 7 steps, though 2.1 / 0.3 is a little over 7 in double
+    sim = makeSimulation(scene("burst = 1\nlifetime = [2.1, 2.1]\ncollide = false", "", "0.3"));
+    for (int i = 0; i < 6; ++i) {
+        sim->runFrame();
+    }
+    EXPECT_EQ(emitter(*sim).pool.count, 1u);
+    sim->runFrame();
+    EXPECT_EQ(emitter(*sim).pool.count, 0u);
 }
 
 TEST(ParticleSystem, FullPoolDropsBirthsAndCountsThem) {
@@ -139,8 +157,7 @@ TEST(ParticleSystem, VortexWithoutDragKeepsEachParticlesRadius) {
         // omega (axis x r) with axis y: (r_z, 0, -r_x) omega
         p.vx[i] = float(omega * p.pz[i]);
         p.vz[i] = float(-omega * p.px[i]);
-        p.lifetime[i] = 100.0f;
-        p.age[i] = 0.0f;
+        p.deathStep[i] = 1000000; // a step far beyond the test's
     }
     p.count = 32;
     std::vector<double> radius(32);
@@ -203,8 +220,15 @@ TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
         for (std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz}) {
             (*a)[i] = float(rng.uniform(-5.0, 5.0));
         }
-        p.age[i] = float(rng.uniform(0.0, 1.0));
-        p.lifetime[i] = float(rng.uniform(0.5, 3.0));
+    }
+    // steps left to live, from 2 past to 40 ahead, around a clock about to wrap: a particle dies in this
+    // update when it has none left (steps left <= 0)
+    std::vector<int> left(1003);
+    p.clock = 0xfffffff0u;
+    for (std::uint32_t i = 0; i < 1003; ++i) {
+        left[i] = int(rng.uniform(-2.0, 40.0));
+        p.birthStep[i] = p.clock - std::uint32_t(rng.uniform(0.0, 100.0));
+        p.deathStep[i] = p.clock + std::uint32_t(left[i]);
     }
     p.count = 1003;
     q = p;
@@ -212,17 +236,16 @@ TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
     const float drag = 0.3f, dt = 0.02f;
     const std::uint32_t deaths = advanceParticles(p, g, drag, dt);
     // the plain reference: same arithmetic per particle
-    std::vector<std::array<float, 8>> moved;
+    std::vector<std::array<double, 8>> moved;
     std::vector<bool> alive;
     for (std::uint32_t i = 0; i < q.count; ++i) {
         const float keep = std::exp(-drag * dt);
         const float vx = q.vx[i] * keep + float(g.x) * dt;
         const float vy = q.vy[i] * keep + float(g.y) * dt;
         const float vz = q.vz[i] * keep + float(g.z) * dt;
-        const float age = q.age[i] + dt;
-        alive.push_back(age < q.lifetime[i]);
-        moved.push_back(
-            {q.px[i] + vx * dt, q.py[i] + vy * dt, q.pz[i] + vz * dt, vx, vy, vz, age, q.lifetime[i]});
+        alive.push_back(left[i] > 0);
+        moved.push_back({q.px[i] + vx * dt, q.py[i] + vy * dt, q.pz[i] + vz * dt, vx, vy, vz,
+                         double(q.birthStep[i]), double(q.deathStep[i])});
     }
     // and its order: the survivors past the new end fill the holes below it, the k-th hole from the start
     // taking the k-th such survivor
@@ -233,7 +256,7 @@ TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
             fillers.push_back(i);
         }
     }
-    std::vector<std::array<float, 8>> expected;
+    std::vector<std::array<double, 8>> expected;
     std::size_t next = 0;
     for (std::uint32_t i = 0; i < survivors; ++i) {
         expected.push_back(alive[i] ? moved[i] : moved[fillers[next++]]);
@@ -242,11 +265,13 @@ TEST(ParticleSystem, VectorisedKernelMatchesAPlainLoopExactly) {
     ASSERT_EQ(p.count, survivors);
     EXPECT_EQ(deaths, 1003u - p.count);
     EXPECT_GT(deaths, 0u);
-    std::vector<std::array<float, 8>> got;
+    std::vector<std::array<double, 8>> got;
     for (std::uint32_t i = 0; i < p.count; ++i) {
-        got.push_back({p.px[i], p.py[i], p.pz[i], p.vx[i], p.vy[i], p.vz[i], p.age[i], p.lifetime[i]});
+        got.push_back({p.px[i], p.py[i], p.pz[i], p.vx[i], p.vy[i], p.vz[i], double(p.birthStep[i]),
+                       double(p.deathStep[i])});
     }
     EXPECT_EQ(got, expected);
+    EXPECT_EQ(p.clock, 0xfffffff1u) << "one update done";
 }
 
 TEST(ParticleSystem, Avx2AndSse2KernelsAndAnyThreadCountGiveTheSameBitsInTheSameOrder) {
@@ -260,8 +285,8 @@ TEST(ParticleSystem, Avx2AndSse2KernelsAndAnyThreadCountGiveTheSameBitsInTheSame
         for (std::vector<float>* a : {&base.px, &base.py, &base.pz, &base.vx, &base.vy, &base.vz}) {
             (*a)[i] = float(rng.uniform(-5.0, 5.0));
         }
-        base.age[i] = float(rng.uniform(0.0, 1.0));
-        base.lifetime[i] = float(rng.uniform(0.5, 1.2));
+        base.birthStep[i] = std::uint32_t(rng.uniform(0.0, 1e6));
+        base.deathStep[i] = std::uint32_t(rng.uniform(0.0, 30.0));
     }
     base.count = n;
     const Vec3 g{0.3, -9.81, 0.1};
@@ -285,10 +310,14 @@ TEST(ParticleSystem, Avx2AndSse2KernelsAndAnyThreadCountGiveTheSameBitsInTheSame
     for (const auto& [simd, threads] : variants) {
         const ParticlePool p = run(simd, threads);
         ASSERT_EQ(p.count, reference.count);
-        for (auto member :
-             {&ParticlePool::px, &ParticlePool::py, &ParticlePool::pz, &ParticlePool::vx, &ParticlePool::vy,
-              &ParticlePool::vz, &ParticlePool::age, &ParticlePool::lifetime}) {
+        for (auto member : {&ParticlePool::px, &ParticlePool::py, &ParticlePool::pz, &ParticlePool::vx,
+                            &ParticlePool::vy, &ParticlePool::vz}) {
             EXPECT_EQ(std::memcmp((p.*member).data(), (reference.*member).data(), p.count * sizeof(float)), 0)
+                << (simd == Simd::Avx2 ? "avx2" : "sse2") << " at " << threads << " threads";
+        }
+        for (auto member : {&ParticlePool::birthStep, &ParticlePool::deathStep}) {
+            EXPECT_TRUE(
+                std::equal((p.*member).begin(), (p.*member).begin() + p.count, (reference.*member).begin()))
                 << (simd == Simd::Avx2 ? "avx2" : "sse2") << " at " << threads << " threads";
         }
     }
@@ -310,10 +339,10 @@ TEST(ParticleSystem, BirthsHaveTheSameBitsAtAnyThreadCount) {
         WorkerPool pool(threads);
         ParticleEmitter e = base;
         if (split) {
-            spawnParticles(e, 1234, pool);
-            spawnParticles(e, 5000 - 1234, pool);
+            spawnParticles(e, 1234, 0.01, pool);
+            spawnParticles(e, 5000 - 1234, 0.01, pool);
         } else {
-            spawnParticles(e, 5000, pool);
+            spawnParticles(e, 5000, 0.01, pool);
         }
         return e;
     };
@@ -324,14 +353,15 @@ TEST(ParticleSystem, BirthsHaveTheSameBitsAtAnyThreadCount) {
          std::vector<std::pair<int, bool>>{{2, false}, {7, false}, {3, true}}) {
         const ParticleEmitter e = born(threads, split);
         ASSERT_EQ(e.pool.count, reference.pool.count);
-        for (auto member :
-             {&ParticlePool::px, &ParticlePool::py, &ParticlePool::pz, &ParticlePool::vx, &ParticlePool::vy,
-              &ParticlePool::vz, &ParticlePool::age, &ParticlePool::lifetime}) {
+        for (auto member : {&ParticlePool::px, &ParticlePool::py, &ParticlePool::pz, &ParticlePool::vx,
+                            &ParticlePool::vy, &ParticlePool::vz}) {
             EXPECT_EQ(
                 std::memcmp((e.pool.*member).data(), (reference.pool.*member).data(), 5000 * sizeof(float)),
                 0)
                 << threads << " threads" << (split ? ", two calls" : "");
         }
+        EXPECT_EQ(e.pool.deathStep, reference.pool.deathStep)
+            << threads << " threads" << (split ? ", two calls" : "");
     }
     // and they are different particles: no two births share their draws
     std::vector<float> xs(reference.pool.px.begin(), reference.pool.px.begin() + 5000);
@@ -413,7 +443,7 @@ TEST(ParticleSystem, KernelHandlesEveryTailLength) {
             ParticlePool p;
             reserveParticles(p, 16);
             for (std::uint32_t i = 0; i < n; ++i) {
-                p.lifetime[i] = allDie ? 0.01f : 10.0f;
+                p.deathStep[i] = allDie ? 0u : 500u; // this update, or a later one
                 p.py[i] = float(i);
             }
             p.count = n;

@@ -41,12 +41,11 @@ MillionScene steadyMillion() {
     return s;
 }
 
-/// The plain way: one scalar loop that ages, kills by swap-remove when it meets a death, and moves.
+/// The plain way: one scalar loop that kills by swap-remove when it meets a death, and moves.
 void advancePlain(ParticlePool& p, const Vec3& g, float drag, float dt) {
     const float keep = std::exp(-drag * dt);
     for (std::uint32_t i = 0; i < p.count;) {
-        p.age[i] += dt;
-        if (p.age[i] >= p.lifetime[i]) {
+        if (std::int32_t(p.deathStep[i] - p.clock) <= 0) {
             const std::uint32_t last = --p.count;
             p.px[i] = p.px[last];
             p.py[i] = p.py[last];
@@ -54,8 +53,8 @@ void advancePlain(ParticlePool& p, const Vec3& g, float drag, float dt) {
             p.vx[i] = p.vx[last];
             p.vy[i] = p.vy[last];
             p.vz[i] = p.vz[last];
-            p.age[i] = p.age[last];
-            p.lifetime[i] = p.lifetime[last];
+            p.birthStep[i] = p.birthStep[last];
+            p.deathStep[i] = p.deathStep[last];
             continue;
         }
         p.vx[i] = p.vx[i] * keep + float(g.x) * dt;
@@ -66,6 +65,7 @@ void advancePlain(ParticlePool& p, const Vec3& g, float drag, float dt) {
         p.pz[i] += p.vz[i] * dt;
         ++i;
     }
+    ++p.clock;
 }
 
 void runMillion(benchmark::State& state, bool plain, int threads = 1) {
@@ -119,8 +119,13 @@ std::uint64_t formatFiveHash(const ParticlePool& p) {
         h ^= w * 0x9e3779b97f4a7c15ull;
         h = ((h << 31) | (h >> 33)) * 0xff51afd7ed558ccdull;
     };
-    for (const std::vector<float>* a : {&p.px, &p.py, &p.pz, &p.vx, &p.vy, &p.vz, &p.age, &p.lifetime}) {
-        const auto* bytes = reinterpret_cast<const unsigned char*>(a->data());
+    // the same bytes as the state hash of today's pool (its ages are step numbers, no longer floats)
+    for (const void* data :
+         {static_cast<const void*>(p.px.data()), static_cast<const void*>(p.py.data()),
+          static_cast<const void*>(p.pz.data()), static_cast<const void*>(p.vx.data()),
+          static_cast<const void*>(p.vy.data()), static_cast<const void*>(p.vz.data()),
+          static_cast<const void*>(p.birthStep.data()), static_cast<const void*>(p.deathStep.data())}) {
+        const auto* bytes = static_cast<const unsigned char*>(data);
         for (std::size_t at = 0; at + 8 <= std::size_t(p.count) * sizeof(float); at += 8) {
             std::uint64_t w;
             std::memcpy(&w, bytes + at, 8);
