@@ -27,7 +27,7 @@ struct ParticlePool {
     std::vector<float> px, py, pz; ///< m, positions
     std::vector<float> vx, vy, vz; ///< m/s, velocities
     // Ages are counted in the pool's own steps, not summed in float: a particle is born at `birthStep`
-    // (the number of the first update that moves it) and dies in the update numbered `deathStep`, when
+    // (the number of its first update) and dies in the update numbered `deathStep` (without moving), when
     // its age, steps times dt, first reaches its lifetime. Step numbers wrap at 2^32 (compared as
     // differences), and a life is at most 2^31 - 1 steps. The update reads `deathStep` alone and writes no
     // age: the pool's streaming update moves 13 arrays' worth of bytes a particle, not 15.

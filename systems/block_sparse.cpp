@@ -39,6 +39,9 @@ BlockMatrix<S> BlockMatrix<S>::fromPairs(std::uint32_t n,
             throw std::out_of_range("block pattern: index beyond the matrix");
         }
     }
+    if (pairs.size() > (0xffffffffu - std::size_t(n)) / 2) {
+        throw std::length_error("block pattern: more blocks than 32-bit indices can count");
+    }
     std::vector<std::uint32_t> start(std::size_t(n) + 2, 0);
     for (const auto& [i, j] : pairs) {
         ++start[std::size_t(i) + 2];

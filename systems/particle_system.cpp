@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 namespace tumble {
@@ -28,6 +29,8 @@ constexpr std::uint32_t kParticleGrain = 1u << 14;
 
 constexpr std::int64_t kMaxParticles = 5'000'000;        // 160 MB of state at most per emitter
 constexpr std::uint64_t kMaxSceneParticles = 10'000'000; // and 320 MB for the whole scene
+// the longest life in steps: ages are step numbers compared as 32-bit differences (components/particles.h)
+constexpr std::uint32_t kMaxLifeSteps = 0x7fffffffu;
 
 /// Load-time tally of the particles every emitter of the scene reserves.
 struct ReservedParticles {
@@ -66,6 +69,16 @@ void loadEmitter(TableReader& r, World& world, Entity entity, const SceneDef& sc
     d.burst = static_cast<std::uint32_t>(r.integer("burst", 0, 0, kMaxParticles));
     const auto life = r.range("lifetime", {2.0, 3.0}, 1e-6, 1e6);
     d.lifetime = {life.first, life.second};
+    if (life.second / scene.dt > double(kMaxLifeSteps)) {
+        // ages are counted in 32-bit steps (components/particles.h)
+        char text[200];
+        std::snprintf(
+            text, sizeof text,
+            "a lifetime of %g s is %.3g steps at dt = %g s; a particle lives at most %u steps (%g s "
+            "at this dt)",
+            life.second, life.second / scene.dt, scene.dt, kMaxLifeSteps, kMaxLifeSteps * scene.dt);
+        r.fail("lifetime", text);
+    }
     const std::string shape = r.choice("shape", "point", {"point", "sphere", "disc", "box"});
     d.shape = shape == "point"    ? EmitterShape::Point
               : shape == "sphere" ? EmitterShape::Sphere
@@ -260,11 +273,11 @@ namespace {
 
 /// The updates a particle of this lifetime lives through: the first count of steps whose time reaches
 /// it (a count within a relative 1e-9 of a whole number taken as that number, so 2 s at dt = 0.01 is 200
-/// steps, not 201), at least one and at most 2^31 - 1 (step numbers are compared as 32-bit differences).
+/// steps, not 201), at least one and at most kMaxLifeSteps (the loader refuses longer lives).
 std::uint32_t lifeSteps(double life, double dt) {
     const double steps = life / dt;
     const double whole = std::ceil(steps - 1e-9 * std::max(1.0, steps));
-    return static_cast<std::uint32_t>(std::clamp(whole, 1.0, double(0x7fffffff)));
+    return static_cast<std::uint32_t>(std::clamp(whole, 1.0, double(kMaxLifeSteps)));
 }
 
 /// One birth: where on the emitter's shape, which way in its cone, how fast, how long it lives.

@@ -194,14 +194,28 @@ TEST(BlockMatrix, APatternFromPairsHoldsBothOrientationsAndTheDiagonalOnceEach) 
     ASSERT_EQ(a.n, n);
     ASSERT_EQ(a.col.size(), expected.size());
     ASSERT_EQ(a.val.size(), expected.size());
+    ASSERT_EQ(a.rowStart.size(), std::size_t(n) + 1);
+    ASSERT_EQ(a.rowStart[0], 0u);
+    ASSERT_EQ(a.rowStart[n], a.col.size());
     auto it = expected.begin();
     for (std::uint32_t i = 0; i < n; ++i) {
+        ASSERT_LE(a.rowStart[i], a.rowStart[std::size_t(i) + 1]);
         for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[std::size_t(i) + 1]; ++b, ++it) {
+            ASSERT_NE(it, expected.end());
             EXPECT_EQ(std::make_pair(i, a.col[b]), *it);
         }
         EXPECT_EQ(a.col[a.diag[i]], i);
         EXPECT_EQ(a.find(i, i), a.diag[i]);
     }
+    EXPECT_EQ(it, expected.end());
+    // no pairs: the diagonal alone; no rows: nothing
+    const BlockMatrix<float> d = BlockMatrix<float>::fromPairs(5, {});
+    EXPECT_EQ(d.col, (std::vector<std::uint32_t>{0, 1, 2, 3, 4}));
+    EXPECT_EQ(d.diag, (std::vector<std::uint32_t>{0, 1, 2, 3, 4}));
+    EXPECT_EQ(d.rowStart, (std::vector<std::uint32_t>{0, 1, 2, 3, 4, 5}));
+    const BlockMatrix<float> e = BlockMatrix<float>::fromPairs(0, {});
+    EXPECT_TRUE(e.col.empty());
+    EXPECT_EQ(e.rowStart, (std::vector<std::uint32_t>{0}));
     EXPECT_THROW(BlockMatrix<float>::fromPairs(n, {{0, n}}), std::out_of_range);
     EXPECT_THROW(BlockMatrix<float>::fromPairs(n, {{n + 5, 1}}), std::out_of_range);
 }

@@ -500,6 +500,12 @@ std::vector<BadCase> cases() {
          {},
          6,
          "no entity named 'rooom' (did you mean 'room'?)"},
+        {"emitter_life_beyond_its_step_count",
+         "[scene]\nname = \"t\"\ndt = 0.0001\n[[entity]]\nname = \"spout\"\n[entity.emitter]\n"
+         "lifetime = [1.0, 300000.0]\n",
+         {},
+         7,
+         "a lifetime of 300000 s is 3e+09 steps at dt = 0.0001 s; a particle lives at most 2147483647 steps"},
         {"emitter_rides_no_air",
          kScene + "[[entity]]\nname = \"puffs\"\n[entity.emitter]\nair = \"puffs\"\n",
          {},
