@@ -69,9 +69,10 @@ struct ReplayFile {
 /// event's KEY=VALUE in every event; 4: fem bodies' rotations started from their spin, their system blocks
 /// summed in float; 5: fem elements two at a time in their own arithmetic; 6: every hash and checksum on
 /// XXH3-64; 7: the implicit solver's levels of 1024 rows or more swept colour by colour, its dot products
-/// in chunks of 512 rows; 8: particles' ages counted in whole steps, not summed in float), so that another
-/// version's replay is refused with a message rather than failing to verify.
-inline constexpr std::uint32_t kReplayVersion = 8;
+/// in chunks of 512 rows; 8: particles' ages counted in whole steps, not summed in float; 9: implicit Euler's
+/// first guess combined from its last three solutions), so that another version's replay is refused with a
+/// message rather than failing to verify.
+inline constexpr std::uint32_t kReplayVersion = 9;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.

@@ -151,18 +151,24 @@ void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out, WorkerP
     pool.forEach(a.n, 512, [&](std::size_t i) { out[i] = a.val[a.diag[i]].inverse(); });
 }
 
+/// a . b over rows [first, end), in double, in index order.
+template <class S>
+double dotRows(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b, std::size_t first,
+               std::size_t end) {
+    double s = 0.0;
+    for (std::size_t i = first; i < end; ++i) {
+        s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) +
+             double(a[i].z) * double(b[i].z);
+    }
+    return s;
+}
+
 /// Dot product accumulated in double: in index order within each chunk of kDotRows rows, the chunks'
 /// partials added in chunk order (the same bits at any thread count, and exact enough for float vectors).
 template <class S>
 double dotAll(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b, WorkerPool& pool) {
-    return pool.sum(a.size(), kDotRows, 0.0, [&](std::size_t first, std::size_t end) {
-        double s = 0.0;
-        for (std::size_t i = first; i < end; ++i) {
-            s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) +
-                 double(a[i].z) * double(b[i].z);
-        }
-        return s;
-    });
+    return pool.sum(a.size(), kDotRows, 0.0,
+                    [&](std::size_t first, std::size_t end) { return dotRows(a, b, first, end); });
 }
 
 /// Zeroes b's fixed rows in [first, end) and returns a . b over them in double, in index order.
@@ -200,16 +206,6 @@ void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
 /// Rows per chunk of the solver's element-wise loops and products: those of its dot products, so that a
 /// product and a dot product can share one pass.
 constexpr std::size_t kRows = kDotRows;
-
-/// y = A x over the pool's threads.
-template <class S>
-void multiplyShared(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& x, std::vector<Vec3T<S>>& y,
-                    WorkerPool& pool) {
-    y.resize(a.n);
-    pool.forChunks(a.n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
-        kernels::multiplyRows(a, x.data(), y.data(), std::uint32_t(first), std::uint32_t(end));
-    });
-}
 
 /// Rows per block of a coloured level: kSmoothBlock, or an eighth of the level if that is fewer (so a level
 /// of a few thousand rows still has blocks enough to share out evenly). Fixed by the level's size.
@@ -509,6 +505,129 @@ void AggregationMultigrid<S>::apply(const std::vector<Vec>& r, std::vector<Vec>&
     cycle(0, r, z, pool);
 }
 
+namespace {
+
+/// Per chunk of rows, for the first guess: G(i, j) = s_i . A s_j over the remembered solutions s (the
+/// upper triangle, i <= j) and c(i) = s_i . b, added chunk after chunk in chunk order.
+struct GuessSums {
+    static constexpr std::size_t kM = kGuessHistory;
+    std::array<double, kM * kM + kM> v{};
+    double& g(std::size_t i, std::size_t j) { return v[i * kM + j]; }
+    double& c(std::size_t i) { return v[kM * kM + i]; }
+    GuessSums& operator+=(const GuessSums& other) {
+        for (std::size_t k = 0; k < v.size(); ++k) {
+            v[k] += other.v[k];
+        }
+        return *this;
+    }
+};
+
+/// The weights y of the remembered solutions that minimise the A-norm of the error, G y = c, by Cholesky in
+/// double. A solution whose part independent of the newer ones has an A-norm below 1e-3 of its own (nearly
+/// a combination of them: a cloth at rest repeats its solution) gets weight zero, which keeps the small
+/// system well conditioned; so does every one if G is not finite.
+std::array<double, kGuessHistory> guessWeights(GuessSums& sums, std::size_t m) {
+    constexpr std::size_t kM = kGuessHistory;
+    constexpr double kIndependent = 1e-6; // of the squared A-norm
+    std::array<double, kM * kM> l{};      // lower factor of the kept rows and columns; zero elsewhere
+    std::array<bool, kM> kept{};
+    for (std::size_t j = 0; j < m; ++j) {
+        double d = sums.g(j, j);
+        for (std::size_t k = 0; k < j; ++k) {
+            d -= l[j * kM + k] * l[j * kM + k];
+        }
+        kept[j] = d > kIndependent * sums.g(j, j);
+        if (!kept[j]) {
+            continue;
+        }
+        l[j * kM + j] = std::sqrt(d);
+        for (std::size_t i = j + 1; i < m; ++i) {
+            double t = sums.g(j, i); // the upper triangle holds G(j, i) = G(i, j)
+            for (std::size_t k = 0; k < j; ++k) {
+                t -= l[i * kM + k] * l[j * kM + k];
+            }
+            l[i * kM + j] = t / l[j * kM + j];
+        }
+    }
+    std::array<double, kM> w{}, y{};
+    for (std::size_t i = 0; i < m; ++i) {
+        if (kept[i]) {
+            double t = sums.c(i);
+            for (std::size_t k = 0; k < i; ++k) {
+                t -= l[i * kM + k] * w[k];
+            }
+            w[i] = t / l[i * kM + i];
+        }
+    }
+    for (std::size_t i = m; i-- > 0;) {
+        if (kept[i]) {
+            double t = w[i];
+            for (std::size_t k = i + 1; k < m; ++k) {
+                t -= l[k * kM + i] * y[k];
+            }
+            y[i] = t / l[i * kM + i];
+        }
+    }
+    return y;
+}
+
+/// Remembers x (the last solution) and replaces it by the first guess that PcgVectors describes; sets
+/// r = b - A x with the fixed rows of both zeroed, and returns |r|^2. Same bits at any thread count: the
+/// sums are one partial per chunk of kDotRows rows, in chunk order.
+template <class S>
+double firstGuess(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
+                  const std::vector<std::uint8_t>& fixed, PcgVectors<S>& work, WorkerPool& pool) {
+    const std::size_t n = a.n;
+    std::array<std::vector<Vec3T<S>>, kGuessHistory>& solutions = work.solutions;
+    std::array<std::vector<Vec3T<S>>, kGuessHistory>& products = work.products;
+    std::vector<Vec3T<S>>& r = work.r;
+    if (work.remembered > 0 && solutions[0].size() != n) {
+        work.remembered = 0; // another system: what was remembered does not apply
+    }
+    // the newest first; the oldest one's storage takes x
+    std::rotate(solutions.begin(), solutions.end() - 1, solutions.end());
+    solutions[0] = x;
+    const std::size_t m = work.remembered = std::min(work.remembered + 1, kGuessHistory);
+    for (std::size_t k = 0; k < m; ++k) {
+        products[k].resize(n);
+    }
+    GuessSums sums = pool.sum(n, kDotRows, GuessSums{}, [&](std::size_t first, std::size_t end) {
+        GuessSums part;
+        for (std::size_t k = 0; k < m; ++k) {
+            kernels::multiplyRows(a, solutions[k].data(), products[k].data(), std::uint32_t(first),
+                                  std::uint32_t(end));
+        }
+        for (std::size_t i = 0; i < m; ++i) {
+            for (std::size_t j = i; j < m; ++j) {
+                part.g(i, j) = dotRows(solutions[i], products[j], first, end);
+            }
+            part.c(i) = dotRows(solutions[i], b, first, end);
+        }
+        return part;
+    });
+    std::array<S, kGuessHistory> y{};
+    const std::array<double, kGuessHistory> weights = guessWeights(sums, m);
+    for (std::size_t k = 0; k < m; ++k) {
+        y[k] = S(weights[k]);
+    }
+    r.resize(n);
+    return pool.sum(n, kDotRows, 0.0, [&](std::size_t first, std::size_t end) {
+        for (std::size_t i = first; i < end; ++i) {
+            Vec3T<S> xi, ri = b[i];
+            for (std::size_t k = 0; k < m; ++k) {
+                xi += solutions[k][i] * y[k];
+                ri -= products[k][i] * y[k];
+            }
+            // a pinned row's column is zero off the diagonal: zeroing x there leaves the other rows' r as is
+            x[i] = fixed[i] ? Vec3T<S>{} : xi;
+            r[i] = fixed[i] ? Vec3T<S>{} : ri;
+        }
+        return dotRows(r, r, first, end);
+    });
+}
+
+} // namespace
+
 template <class S>
 SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
                     AggregationMultigrid<S>& preconditioner, const std::vector<std::uint8_t>& fixed,
@@ -528,13 +647,8 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
     std::vector<Vec3T<S>>& z = work.z;
     std::vector<Vec3T<S>>& p = work.p;
     std::vector<Vec3T<S>>& ap = work.ap;
-    r.resize(n);
-    multiplyShared(a, x, ap, pool);
-    for (std::size_t i = 0; i < n; ++i) {
-        r[i] = b[i] - ap[i];
-    }
-    filter(r, fixed);
-    double rnorm = std::sqrt(dotAll(r, r, pool));
+    ap.resize(n);
+    double rnorm = std::sqrt(firstGuess(a, b, x, fixed, work, pool));
     preconditioner.apply(r, z, pool);
     double rz = filteredDot(r, z, fixed, pool);
     p = z;

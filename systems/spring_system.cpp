@@ -725,6 +725,16 @@ void integrateSprings(World& world, const StepContext& ctx) {
 
 namespace {
 
+/// Implicit Euler's warm start and the solutions its first guess remembers (linear_solver.h) shape the next
+/// step, so they are state too: the last step's dv, and the remembered solutions the next solve keeps.
+template <class S>
+void hashSolverState(Hasher& h, const std::vector<Vec3T<S>>& dv, const PcgVectors<S>& pcg) {
+    h.add(dv);
+    for (std::size_t k = 0; k < std::min(pcg.remembered, kGuessHistory - 1); ++k) {
+        h.add(pcg.solutions[k]);
+    }
+}
+
 /// Whether two loads of a network have the same masses, links and surface: what a set event must keep.
 std::optional<std::string> sameShape(const SpringNetwork& b, const SpringNetwork& a) {
     bool same = b.kind == a.kind && b.x.size() == a.x.size() && b.links.size() == a.links.size() &&
@@ -810,7 +820,7 @@ void registerSpringSystem(Catalog& catalog) {
                    [](const World& w, Entity e, Hasher& h) {
                        hashNetwork(w.get<SpringNetwork>(e), h);
                        if (const auto* work = w.tryGet<SpringWorkspace>(e)) {
-                           h.add(work->fem.dv);
+                           hashSolverState(h, work->fem.dv, work->fem.pcg);
                        }
                    },
                    networkRows});
@@ -819,10 +829,9 @@ void registerSpringSystem(Catalog& catalog) {
         [](const World& w, Entity e, JsonWriter& out) { dumpNetwork(w.get<SpringNetwork>(e), out); },
         [](const World& w, Entity e, Hasher& h) {
             hashNetwork(w.get<SpringNetwork>(e), h);
-            // implicit Euler's warm start shapes the next step, so it is state too
             if (const auto* work = w.tryGet<SpringWorkspace>(e)) {
-                h.add(work->single.dv);
-                h.add(work->precise.dv);
+                hashSolverState(h, work->single.dv, work->single.pcg);
+                hashSolverState(h, work->precise.dv, work->precise.pcg);
             }
         },
         networkRows});

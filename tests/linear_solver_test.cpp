@@ -9,6 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <set>
@@ -170,6 +173,122 @@ TEST(Pcg, SolvesACurtainSystemInFloat) {
 
 TEST(Pcg, IterationsStayLowOnALargeCloth) {
     solvesCloth<float>(100, 1e-3, 25);
+}
+
+// The first guess (PcgVectors): of the last three solutions, the combination nearest the answer in the
+// A-norm. A solve given no iterations returns it; the reference is the 3 x 3 Galerkin system built here
+// from the plain product and solved by Cramer's rule.
+template <class S>
+std::vector<Vec3T<S>> product(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& x) {
+    std::vector<Vec3T<S>> y;
+    a.multiply(x, y);
+    return y;
+}
+
+double det3(const std::array<std::array<double, 3>, 3>& m) {
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+           m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+/// (x - answer)^T A (x - answer), with A answer = b: x^T A x - 2 x^T b + (a constant left out).
+double energyError(const BlockMatrix<double>& a, const std::vector<Vec3T<double>>& x,
+                   const std::vector<Vec3T<double>>& b) {
+    return dotv(x, product(a, x)) - 2.0 * dotv(x, b);
+}
+
+TEST(Pcg, StartsFromTheCombinationOfTheLastSolutionsNearestTheAnswer) {
+    static_assert(kGuessHistory == 3, "the reference below combines three solutions");
+    std::vector<std::uint8_t> pinned;
+    const BlockMatrix<double> a = clothMatrix<double>(12, pinned);
+    AggregationMultigrid<double> mg;
+    mg.update(a);
+    PcgVectors<double> work;
+    std::vector<Vec3T<double>> x(a.n);
+    std::vector<std::vector<Vec3T<double>>> solutions;
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+        solvePcg(a, randomVector<double>(a.n, seed, pinned), x, mg, pinned, 1e-12, 200, work);
+        solutions.push_back(x);
+    }
+    // a remembered solution not zero in a row pinned since (a release and a new pin): the guess is zero there
+    const std::uint32_t pin = std::uint32_t(std::find(pinned.begin(), pinned.end(), 1) - pinned.begin());
+    ASSERT_LT(pin, a.n);
+    ASSERT_EQ(work.solutions[0].size(), a.n);
+    work.solutions[0][pin] = solutions[1][pin] = {1.0, 2.0, 3.0}; // the second, to be remembered with x
+    const std::vector<Vec3T<double>> b = randomVector<double>(a.n, 4, pinned);
+    const std::vector<Vec3T<double>> warm = x;
+    const SolveStats stats = solvePcg(a, b, x, mg, pinned, 1e-12, 0, work);
+    EXPECT_EQ(stats.iterations, 0);
+
+    std::array<std::array<double, 3>, 3> g{};
+    std::array<double, 3> c{};
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) {
+            g[i][j] = dotv(solutions[i], product(a, solutions[j]));
+        }
+        c[i] = dotv(solutions[i], b);
+    }
+    const double d = det3(g);
+    ASSERT_GT(std::abs(d), 1e-12 * g[0][0] * g[1][1] * g[2][2]) << "three independent solutions";
+    std::vector<Vec3T<double>> expected(a.n);
+    for (std::size_t k = 0; k < 3; ++k) {
+        std::array<std::array<double, 3>, 3> gk = g;
+        for (std::size_t i = 0; i < 3; ++i) {
+            gk[i][k] = c[i];
+        }
+        const double y = det3(gk) / d;
+        for (std::uint32_t i = 0; i < a.n; ++i) {
+            expected[i] += pinned[i] ? Vec3T<double>{} : solutions[k][i] * y;
+        }
+    }
+    double scale = 0.0;
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        scale = std::max(scale, std::sqrt(double(dot(expected[i], expected[i]))));
+    }
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        ASSERT_NEAR(x[i].x, expected[i].x, 1e-9 * scale) << "row " << i;
+        ASSERT_NEAR(x[i].y, expected[i].y, 1e-9 * scale) << "row " << i;
+        ASSERT_NEAR(x[i].z, expected[i].z, 1e-9 * scale) << "row " << i;
+    }
+    // the residual it reports is that of the guess, and the guess is nearer the answer than the warm start
+    const std::vector<Vec3T<double>> ax = product(a, x);
+    double r2 = 0.0;
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        if (!pinned[i]) {
+            const Vec3T<double> r = b[i] - ax[i];
+            r2 += dot(r, r);
+        }
+    }
+    EXPECT_NEAR(stats.relativeResidual, std::sqrt(r2 / dotv(b, b)), 1e-9 * stats.relativeResidual);
+    EXPECT_LT(energyError(a, x, b), energyError(a, warm, b));
+}
+
+TEST(Pcg, AFirstGuessFromRepeatedSolutionsIsTheBestMultipleOfOne) {
+    // a cloth at rest repeats its solution to rounding: the Galerkin system is then singular to rounding,
+    // and the guess must be the best multiple of one of them (another 1e-8 apart gives weights of 1e8 and
+    // takes in the direction of that difference, unrelated to the answer)
+    std::vector<std::uint8_t> pinned;
+    const BlockMatrix<double> a = clothMatrix<double>(12, pinned);
+    AggregationMultigrid<double> mg;
+    mg.update(a);
+    const std::vector<Vec3T<double>> v = randomVector<double>(a.n, 5, pinned);
+    const std::vector<Vec3T<double>> w = randomVector<double>(a.n, 6, pinned);
+    PcgVectors<double> work;
+    work.solutions[0] = work.solutions[1] = v;
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        work.solutions[0][i] += w[i] * 1e-8;
+    }
+    work.remembered = 2;
+    const std::vector<Vec3T<double>> b = randomVector<double>(a.n, 7, pinned);
+    std::vector<Vec3T<double>> x = v;
+    solvePcg(a, b, x, mg, pinned, 1e-12, 0, work);
+    const double alpha = dotv(v, b) / dotv(v, product(a, v));
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        ASSERT_TRUE(std::isfinite(x[i].x) && std::isfinite(x[i].y) && std::isfinite(x[i].z)) << "row " << i;
+        ASSERT_NEAR(x[i].x, alpha * v[i].x, 1e-6) << "row " << i;
+        ASSERT_NEAR(x[i].y, alpha * v[i].y, 1e-6) << "row " << i;
+        ASSERT_NEAR(x[i].z, alpha * v[i].z, 1e-6) << "row " << i;
+    }
 }
 
 // The pattern from pairs against a set built from them: both orientations, the diagonal, each row sorted
