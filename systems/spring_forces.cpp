@@ -274,14 +274,23 @@ void addWindDamping(const SpringNetwork& net, const Environment& env, double h, 
     });
 }
 
-bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len) {
+bool springAxis(const SpringLink& s, const Vec3& xa, const Vec3& xb, Vec3& u, double& len,
+                double& transverse) {
     const Vec3 d = xb - xa;
     len = length(d);
     if (len <= 1e-12) {
         return false;
     }
     u = d * (1.0 / len);
-    const double transverse = std::max(0.0, 1.0 - s.rest / len);
+    transverse = std::max(0.0, 1.0 - s.rest / len);
+    return true;
+}
+
+bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len) {
+    double transverse = 0.0;
+    if (!springAxis(s, xa, xb, u, len, transverse)) {
+        return false;
+    }
     // k [ (1 - t) u u^T + t I ]
     k = Mat3::outer(u, s.k * (1.0 - transverse));
     k.m[0] += s.k * transverse;

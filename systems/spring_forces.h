@@ -66,6 +66,12 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
 void springForces(const SpringNetwork& net, const Environment& env, const std::vector<Vec3>& x,
                   const std::vector<Vec3>& v, std::vector<Vec3>& f);
 
+/// A spring's unit direction u from a to b, its length, and the fraction t = max(0, 1 - rest / len) of its
+/// stiffness that acts across it: K = k [(1 - t) u u^T + t I] (see the header comment). Returns false for
+/// coincident masses (no direction).
+bool springAxis(const SpringLink& s, const Vec3& xa, const Vec3& xb, Vec3& u, double& len,
+                double& transverse);
+
 /// The stiffness block K of a spring (see the header comment), its unit direction from a to b and its length.
 /// Returns false for coincident masses (no direction).
 bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len);

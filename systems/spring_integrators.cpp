@@ -75,14 +75,6 @@ void rk4(SpringNetwork& net, SpringWorkspace& w, const Environment& env, double 
     }
 }
 
-Mat3 scaled(const Mat3& m, double s) {
-    Mat3 r;
-    for (std::size_t e = 0; e < 9; ++e) {
-        r.m[e] = m.m[e] * s;
-    }
-    return r;
-}
-
 /// The block pattern of a network's system matrix, where each link's blocks are, and which blocks the
 /// pinned masses clear.
 template <class S>
@@ -142,19 +134,18 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     pool.forEach(net.links.size(), kLinkGrain, [&](std::size_t k) {
         const SpringLink& s = net.links[k];
         LinkTerms& t = w.terms[k];
-        Mat3 stiff;
-        Vec3 u;
-        double len = 0.0;
-        t.active = springStiffness(s, net.x[s.a], net.x[s.b], stiff, u, len);
+        double len = 0.0, transverse = 0.0;
+        t.active = springAxis(s, net.x[s.a], net.x[s.b], t.u, len, transverse);
         if (!t.active) {
             return;
         }
         const Vec3 dvel = net.v[s.b] - net.v[s.a];
-        const Vec3 fa = u * (s.k * (len - s.rest) + s.kd * dot(dvel, u));
-        t.force = fa * h;
-        t.stiffness = (stiff * dvel) * (h * h);
-        t.block = Mat3::outer(u, h * s.kd);
-        t.block += scaled(stiff, h * h);
+        const double du = dot(dvel, t.u);
+        const double stiffAlong = h * h * s.k * (1.0 - transverse);
+        t.along = h * s.kd + stiffAlong;
+        t.across = h * h * s.k * transverse;
+        // h F_a = h (k (len - rest) + kd du) u, and h^2 K dvel = stiffAlong du u + across dvel
+        t.rhs = t.u * (h * (s.k * (len - s.rest) + s.kd * du) + stiffAlong * du) + dvel * t.across;
     });
     pool.forEach(n, kMassGrain, [&](std::size_t i) {
         const double m = 1.0 / net.invMass[i];
@@ -172,14 +163,13 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
                 continue;
             }
             if (side == 0) {
-                r += t.force;
-                r += t.stiffness;
+                r += t.rhs;
             } else {
-                r -= t.force;
-                r -= t.stiffness;
+                r -= t.rhs;
             }
-            d += t.block;
-            a.val[w.linkBlocks[k][side]] -= t.block.template cast<S>();
+            const Mat3 block = t.block();
+            d += block;
+            a.val[w.linkBlocks[k][side]] -= block.template cast<S>();
         }
         diagonal[i] = d;
         rhs[i] = r;

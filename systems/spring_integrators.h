@@ -34,11 +34,22 @@ namespace tumble {
 /// last velocity change (the next solve's warm start).
 /// One link's share of the implicit system in a step: the force and stiffness terms it adds to the
 /// right-hand side of its masses (h F and h^2 K dv), and its block (h kd uu^T + h^2 K).
+/// One link's part of the implicit system, taken by its two masses with opposite signs: the block h kd u u^T
+/// + h^2 K = along u u^T + across I (K = k [(1 - t) u u^T + t I]: spring_forces.h), kept as its two
+/// coefficients and u (a third of a whole block's bytes, read twice), and h F_a + h^2 K (v_b - v_a).
 struct LinkTerms {
-    Vec3 force;     ///< h F_a
-    Vec3 stiffness; ///< h^2 K (v_b - v_a)
-    Mat3 block;
+    Vec3 u;
+    double along = 0.0, across = 0.0;
+    Vec3 rhs;
     bool active = false; ///< false for coincident masses: no direction, nothing added
+
+    Mat3 block() const {
+        Mat3 b = Mat3::outer(u, along);
+        b.m[0] += across;
+        b.m[4] += across;
+        b.m[8] += across;
+        return b;
+    }
 };
 
 template <class S>

@@ -28,9 +28,9 @@ const std::map<std::string, std::uint64_t>& pinned() {
     static const std::map<std::string, std::uint64_t> table = {
         {"avalanche", 0x55c1fdbb295c58b6ull},   {"bridge", 0x4ee39f98ae6cf80full},
         {"chimney", 0x581dd7a6f6f0da71ull},     {"contraption2d", 0xf68f4c5c3b907a05ull},
-        {"crane", 0x56c11292c606c702ull},       {"curtain", 0xcb1d83015c23dd73ull},
+        {"crane", 0x56c11292c606c702ull},       {"curtain", 0x2b806649d90cce2aull},
         {"drape", 0x38e0a50832ce2409ull},       {"drape_sphere", 0xdf629cdbcd4ad5d6ull},
-        {"fan_flag", 0x1444390bfe125937ull},    {"fem_jelly", 0xe935337126fa3debull},
+        {"fan_flag", 0x04f1077555b45fbcull},    {"fem_jelly", 0x5cd512f6154030d2ull},
         {"fireworks", 0xea8c13de27cd72c5ull},   {"flag", 0xbeea6abe48feb455ull},
         {"fountain", 0xe26792894f3d3a68ull},    {"harbour", 0x8a137bc5bee95da3ull},
         {"integrators", 0x462825650b0a4cb7ull}, {"jelly", 0x7d570d3c1f75e29bull},
