@@ -459,6 +459,7 @@ void buildFemPattern(const SpringNetwork& net, FemSolver& s) {
     }
     invertLists(nodeOf, std::uint32_t(net.x.size()), s.nodeCorners);
     s.dv.assign(net.x.size(), Vec3T<float>{});
+    s.pcg.remembered = 0; // solutions of another system
     s.multigrid = AggregationMultigrid<float>{};
     s.pinnedWhenBuilt.clear();
 }

@@ -163,6 +163,20 @@ double dotRows(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b, s
     return s;
 }
 
+/// a . b over the rows of [first, end) that are not fixed, in double, in index order.
+template <class S>
+double freeDot(const std::vector<Vec3T<S>>& a, const std::vector<Vec3T<S>>& b,
+               const std::vector<std::uint8_t>& fixed, std::size_t first, std::size_t end) {
+    double s = 0.0;
+    for (std::size_t i = first; i < end; ++i) {
+        if (!fixed[i]) {
+            s += double(a[i].x) * double(b[i].x) + double(a[i].y) * double(b[i].y) +
+                 double(a[i].z) * double(b[i].z);
+        }
+    }
+    return s;
+}
+
 /// Dot product accumulated in double: in index order within each chunk of kDotRows rows, the chunks'
 /// partials added in chunk order (the same bits at any thread count, and exact enough for float vectors).
 template <class S>
@@ -525,11 +539,22 @@ struct GuessSums {
 /// The weights y of the remembered solutions that minimise the A-norm of the error, G y = c, by Cholesky in
 /// double. A solution whose part independent of the newer ones has an A-norm below 1e-3 of its own (nearly
 /// a combination of them: a cloth at rest repeats its solution) gets weight zero, which keeps the small
-/// system well conditioned; so does every one if G is not finite.
+/// system well conditioned; every one does if a sum is not finite (a solution holding NaN or inf).
 std::array<double, kGuessHistory> guessWeights(GuessSums& sums, std::size_t m) {
     constexpr std::size_t kM = kGuessHistory;
     constexpr double kIndependent = 1e-6; // of the squared A-norm
-    std::array<double, kM * kM> l{};      // lower factor of the kept rows and columns; zero elsewhere
+    std::array<double, kM> w{}, y{};
+    for (std::size_t i = 0; i < m; ++i) {
+        for (std::size_t j = i; j < m; ++j) {
+            if (!std::isfinite(sums.g(i, j))) {
+                return y;
+            }
+        }
+        if (!std::isfinite(sums.c(i))) {
+            return y;
+        }
+    }
+    std::array<double, kM * kM> l{}; // lower factor of the kept rows and columns; zero elsewhere
     std::array<bool, kM> kept{};
     for (std::size_t j = 0; j < m; ++j) {
         double d = sums.g(j, j);
@@ -549,7 +574,6 @@ std::array<double, kGuessHistory> guessWeights(GuessSums& sums, std::size_t m) {
             l[i * kM + j] = t / l[j * kM + j];
         }
     }
-    std::array<double, kM> w{}, y{};
     for (std::size_t i = 0; i < m; ++i) {
         if (kept[i]) {
             double t = sums.c(i);
@@ -563,7 +587,7 @@ std::array<double, kGuessHistory> guessWeights(GuessSums& sums, std::size_t m) {
         if (kept[i]) {
             double t = w[i];
             for (std::size_t k = i + 1; k < m; ++k) {
-                t -= l[k * kM + i] * y[k];
+                t -= kept[k] ? l[k * kM + i] * y[k] : 0.0;
             }
             y[i] = t / l[i * kM + i];
         }
@@ -572,8 +596,11 @@ std::array<double, kGuessHistory> guessWeights(GuessSums& sums, std::size_t m) {
 }
 
 /// Remembers x (the last solution) and replaces it by the first guess that PcgVectors describes; sets
-/// r = b - A x with the fixed rows of both zeroed, and returns |r|^2. Same bits at any thread count: the
-/// sums are one partial per chunk of kDotRows rows, in chunk order.
+/// r = b - A x with the fixed rows of both zeroed, and returns |r|^2. The sums leave out the fixed rows (a
+/// solution remembered before a mass was pinned may not be zero there; the filtered matrix's rows and
+/// columns there are the identity, which would weigh it by a made-up unit mass). Weights too large for S
+/// (a cloth at rest leaves solutions near S's smallest numbers) give the guess zero. Same bits at any
+/// thread count: the sums are one partial per chunk of kDotRows rows, in chunk order.
 template <class S>
 double firstGuess(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::vector<Vec3T<S>>& x,
                   const std::vector<std::uint8_t>& fixed, PcgVectors<S>& work, WorkerPool& pool) {
@@ -599,24 +626,35 @@ double firstGuess(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std::
         }
         for (std::size_t i = 0; i < m; ++i) {
             for (std::size_t j = i; j < m; ++j) {
-                part.g(i, j) = dotRows(solutions[i], products[j], first, end);
+                part.g(i, j) = freeDot(solutions[i], products[j], fixed, first, end);
             }
-            part.c(i) = dotRows(solutions[i], b, first, end);
+            part.c(i) = freeDot(solutions[i], b, fixed, first, end);
         }
         return part;
     });
+    // the solutions with a weight, and their weights in S (none if one is too large for S)
+    std::array<std::size_t, kGuessHistory> used{};
     std::array<S, kGuessHistory> y{};
+    std::size_t count = 0;
     const std::array<double, kGuessHistory> weights = guessWeights(sums, m);
     for (std::size_t k = 0; k < m; ++k) {
-        y[k] = S(weights[k]);
+        const S weight = S(weights[k]);
+        if (!std::isfinite(weight)) {
+            count = 0;
+            break;
+        }
+        if (weight != S(0)) {
+            used[count] = k;
+            y[count++] = weight;
+        }
     }
     r.resize(n);
     return pool.sum(n, kDotRows, 0.0, [&](std::size_t first, std::size_t end) {
         for (std::size_t i = first; i < end; ++i) {
             Vec3T<S> xi, ri = b[i];
-            for (std::size_t k = 0; k < m; ++k) {
-                xi += solutions[k][i] * y[k];
-                ri -= products[k][i] * y[k];
+            for (std::size_t u = 0; u < count; ++u) {
+                xi += solutions[used[u]][i] * y[u];
+                ri -= products[used[u]][i] * y[u];
             }
             // a pinned row's column is zero off the diagonal: zeroing x there leaves the other rows' r as is
             x[i] = fixed[i] ? Vec3T<S>{} : xi;

@@ -128,10 +128,11 @@ constexpr std::size_t kGuessHistory = 3;
 /// kGuessHistory - 1 solves before it, the combination nearest the new solution in the A-norm, which is
 /// found from their products with the new A alone (a Galerkin projection onto their span; Fischer 1998,
 /// "Projection techniques for iterative solution of Ax = b with successive right-hand sides"). It costs
-/// kGuessHistory products in one pass over the matrix (the warm start paid one), and it is never further
-/// from the solution in the A-norm than the plain warm start, which is one of the combinations. Measured
-/// over 300 steps after 120 frames: the curtain's CG iterations 8.28 -> 6.67 a step, a 100 x 100 cloth's
-/// 16.5 -> 14.9 (two solutions remembered: 7.10 and 15.9; four: 7.05, 14.7, and a fourth product).
+/// kGuessHistory products, taken together chunk by chunk of rows (the warm start paid one), and it is no
+/// further from the solution in the A-norm than the plain warm start, which is one of the combinations (up
+/// to rounding). Measured over 300 steps after 120 frames (60 for the 100 x 100): the curtain's CG
+/// iterations 8.28 -> 7.13 a step, a 100 x 100 cloth's 16.5 -> 14.6. Two solutions remembered gave 7.10 and
+/// 15.9, four 7.00 and 14.4 for a fourth product: three for the larger cloths.
 template <class S>
 struct PcgVectors {
     std::vector<Vec3T<S>> r, z, p, ap;

@@ -92,6 +92,7 @@ void buildPattern(const SpringNetwork& net, ImplicitSolver<S>& w) {
     }
     w.terms.resize(net.links.size());
     w.dv.assign(net.x.size(), Vec3T<S>{});
+    w.pcg.remembered = 0; // solutions of another system
     w.multigrid = AggregationMultigrid<S>{};
 }
 

@@ -30,13 +30,9 @@
 
 namespace tumble {
 
-/// The implicit solver's state in one precision: the system (fixed pattern), its preconditioner, and the
-/// last velocity change (the next solve's warm start).
-/// One link's share of the implicit system in a step: the force and stiffness terms it adds to the
-/// right-hand side of its masses (h F and h^2 K dv), and its block (h kd uu^T + h^2 K).
-/// One link's part of the implicit system, taken by its two masses with opposite signs: the block h kd u u^T
-/// + h^2 K = along u u^T + across I (K = k [(1 - t) u u^T + t I]: spring_forces.h), kept as its two
-/// coefficients and u (a third of a whole block's bytes, read twice), and h F_a + h^2 K (v_b - v_a).
+/// One link's part of the implicit system in a step, taken by its two masses with opposite signs: the block
+/// h kd u u^T + h^2 K = along u u^T + across I (K = k [(1 - t) u u^T + t I]: spring_forces.h), kept as u
+/// and the two coefficients (5 doubles where the whole block is 9), and h F_a + h^2 K (v_b - v_a).
 struct LinkTerms {
     Vec3 u;
     double along = 0.0, across = 0.0;
@@ -52,6 +48,8 @@ struct LinkTerms {
     }
 };
 
+/// The implicit solver's state in one precision: the system (fixed pattern), its preconditioner, and the
+/// last velocity change (the next solve's warm start).
 template <class S>
 struct ImplicitSolver {
     BlockMatrix<S> system;                                ///< the links plus the diagonal

@@ -220,13 +220,18 @@ TEST(Pcg, StartsFromTheCombinationOfTheLastSolutionsNearestTheAnswer) {
     const SolveStats stats = solvePcg(a, b, x, mg, pinned, 1e-12, 0, work);
     EXPECT_EQ(stats.iterations, 0);
 
+    // the sums leave out the pinned rows (the filtered matrix is the identity there: no mass of its own)
+    std::vector<std::vector<Vec3T<double>>> free = solutions;
+    for (std::vector<Vec3T<double>>& s : free) {
+        s[pin] = {};
+    }
     std::array<std::array<double, 3>, 3> g{};
     std::array<double, 3> c{};
     for (std::size_t i = 0; i < 3; ++i) {
         for (std::size_t j = 0; j < 3; ++j) {
-            g[i][j] = dotv(solutions[i], product(a, solutions[j]));
+            g[i][j] = dotv(free[i], product(a, free[j]));
         }
-        c[i] = dotv(solutions[i], b);
+        c[i] = dotv(free[i], b);
     }
     const double d = det3(g);
     ASSERT_GT(std::abs(d), 1e-12 * g[0][0] * g[1][1] * g[2][2]) << "three independent solutions";
@@ -289,6 +294,48 @@ TEST(Pcg, AFirstGuessFromRepeatedSolutionsIsTheBestMultipleOfOne) {
         ASSERT_NEAR(x[i].y, alpha * v[i].y, 1e-6) << "row " << i;
         ASSERT_NEAR(x[i].z, alpha * v[i].z, 1e-6) << "row " << i;
     }
+}
+
+TEST(Pcg, AFirstGuessWithWeightsTooLargeForFloatStartsFromZero) {
+    // a cloth at rest leaves a solution near float's smallest numbers; the next step's may be of order one
+    std::vector<std::uint8_t> pinned;
+    const BlockMatrix<float> a = clothMatrix<float>(12, pinned);
+    AggregationMultigrid<float> mg;
+    mg.update(a);
+    std::vector<Vec3T<float>> x = randomVector<float>(a.n, 8, pinned);
+    for (Vec3T<float>& v : x) {
+        v = v * 1e-43f; // subnormal: the weight is about 1e41
+    }
+    const std::vector<Vec3T<float>> b = randomVector<float>(a.n, 9, pinned);
+    PcgVectors<float> work;
+    const SolveStats stats = solvePcg(a, b, x, mg, pinned, 1e-6, 0, work);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        ASSERT_EQ(x[i].x, 0.0f) << "row " << i;
+        ASSERT_EQ(x[i].y, 0.0f) << "row " << i;
+        ASSERT_EQ(x[i].z, 0.0f) << "row " << i;
+    }
+    EXPECT_DOUBLE_EQ(stats.relativeResidual, 1.0);
+    // and the solve from there converges as from zero
+    const SolveStats solved = solvePcg(a, b, x, mg, pinned, 1e-4, 100, work);
+    EXPECT_TRUE(solved.converged);
+}
+
+TEST(Pcg, AFirstGuessLeavesOutARememberedSolutionThatIsNotFinite) {
+    std::vector<std::uint8_t> pinned;
+    const BlockMatrix<float> a = clothMatrix<float>(12, pinned);
+    AggregationMultigrid<float> mg;
+    mg.update(a);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    PcgVectors<float> work;
+    work.solutions[0].assign(a.n, Vec3T<float>{nan, nan, nan});
+    work.remembered = 1;
+    std::vector<Vec3T<float>> x = randomVector<float>(a.n, 10, pinned);
+    const std::vector<Vec3T<float>> b = randomVector<float>(a.n, 11, pinned);
+    const SolveStats stats = solvePcg(a, b, x, mg, pinned, 1e-4, 100, work);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        ASSERT_TRUE(std::isfinite(x[i].x) && std::isfinite(x[i].y) && std::isfinite(x[i].z)) << "row " << i;
+    }
+    EXPECT_TRUE(stats.converged);
 }
 
 // The pattern from pairs against a set built from them: both orientations, the diagonal, each row sorted

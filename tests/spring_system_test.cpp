@@ -2,6 +2,8 @@
 
 #include "components/spring_network.h"
 #include "engine/name.h"
+#include "systems/linear_solver.h"
+#include "systems/spring_integrators.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -166,5 +168,29 @@ value = [0, 0, 8]
     EXPECT_NEAR(momentum().z, 8.0, 1e-12);
 }
 
+// The state hash covers what shapes the next step: besides dv (the warm start), the solutions the next
+// solve's first guess combines (linear_solver.h), and nothing it recomputes.
+TEST(SpringSystem, TheStateHashTakesTheSolutionsTheNextFirstGuessCombines) {
+    auto sim = test::makeSimulation(test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml"));
+    for (int i = 0; i < 3; ++i) {
+        sim->runFrame();
+    }
+    const std::uint64_t before = sim->hash();
+    SpringWorkspace* work = nullptr;
+    sim->world().view<SpringWorkspace>().each([&](Entity, SpringWorkspace& w) { work = &w; });
+    ASSERT_NE(work, nullptr);
+    PcgVectors<float>& pcg = work->single.pcg;
+    ASSERT_EQ(pcg.remembered, kGuessHistory) << "one solve a frame";
+    for (std::size_t k = 0; k + 1 < kGuessHistory; ++k) {
+        const Vec3T<float> kept = pcg.solutions[k][5];
+        pcg.solutions[k][5].x += 1.0f;
+        EXPECT_NE(sim->hash(), before) << "solution " << k << " is combined by the next solve";
+        pcg.solutions[k][5] = kept;
+    }
+    // the oldest is forgotten before the next solve, and the products are taken again
+    pcg.solutions[kGuessHistory - 1][5].x += 1.0f;
+    pcg.products[0][5].x += 1.0f;
+    EXPECT_EQ(sim->hash(), before);
+}
 } // namespace
 } // namespace tumble
