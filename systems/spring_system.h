@@ -14,10 +14,28 @@
 #include "engine/step_context.h"
 #include "engine/world.h"
 
+#include <cstddef>
+#include <vector>
+
 namespace tumble {
 
 /// One fixed step of every spring network.
 void integrateSprings(World& world, const StepContext& ctx);
+
+/// A network step's work, to share the networks out over threads: its masses times what a mass costs a step
+/// under its integrator, relative to symplectic Euler.
+double networkWork(const SpringNetwork& net);
+
+/// Which networks step alone, one after another, each with its loops shared over every thread, before the
+/// rest step side by side, each on one thread. Which thread runs what changes no bit (each network touches
+/// only itself), only the time: side by side, a network with more than an equal share of the work is left
+/// on one thread while the others idle. So the largest steps alone while its work is more than the threads'
+/// equal share of the work left, then the next largest, and so on.
+struct NetworkShares {
+    std::vector<std::size_t> alone;    ///< largest first (ties: entity order)
+    std::vector<std::size_t> together; ///< in entity order
+};
+NetworkShares shareOutNetworks(const std::vector<double>& work, int threads);
 
 /// Registers the spring network components, their dump and hash and their events.
 void registerSpringSystem(Catalog& catalog);

@@ -4,12 +4,15 @@
 #include "engine/name.h"
 #include "systems/linear_solver.h"
 #include "systems/spring_integrators.h"
+#include "systems/spring_system.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
+#include <utility>
+#include <vector>
 
 namespace tumble {
 namespace {
@@ -191,6 +194,53 @@ TEST(SpringSystem, TheStateHashTakesTheSolutionsTheNextFirstGuessCombines) {
     pcg.solutions[kGuessHistory - 1][5].x += 1.0f;
     pcg.products[0][5].x += 1.0f;
     EXPECT_EQ(sim->hash(), before);
+}
+
+// Which networks step alone (each on every thread) and which side by side (each on one thread): a network
+// with more than the threads' equal share of the work left steps alone, the largest first.
+TEST(SpringSystem, ANetworkWithMoreThanItsShareOfTheWorkStepsAloneOnEveryThread) {
+    using Indices = std::vector<std::size_t>;
+    // stress_cloth at two threads: the 150 x 150 cloth has more than half, then the 100 x 100 more than
+    // half of the rest, and so on down to the last
+    const std::vector<double> stress = {12250.0, 40960.0, 100000.0, 225000.0};
+    NetworkShares s = shareOutNetworks(stress, 2);
+    EXPECT_EQ(s.alone, (Indices{3, 2, 1, 0}));
+    EXPECT_TRUE(s.together.empty());
+    // at 16 threads each is more than a sixteenth of what is left
+    EXPECT_EQ(shareOutNetworks(stress, 16).alone, (Indices{3, 2, 1, 0}));
+    // equal networks share out evenly side by side: none has more than its share
+    s = shareOutNetworks(std::vector<double>(4, 100.0), 2);
+    EXPECT_TRUE(s.alone.empty());
+    EXPECT_EQ(s.together, (Indices{0, 1, 2, 3}));
+    EXPECT_TRUE(shareOutNetworks(std::vector<double>(16, 100.0), 16).alone.empty());
+    // one large among small ones: it alone, then the small ones side by side, in entity order
+    s = shareOutNetworks({10.0, 1000.0, 10.0, 10.0, 10.0}, 4);
+    EXPECT_EQ(s.alone, (Indices{1}));
+    EXPECT_EQ(s.together, (Indices{0, 2, 3, 4}));
+    // two of the same size, both more than their share: the first in entity order first (and a network left
+    // by itself has all the work left)
+    EXPECT_EQ(shareOutNetworks({500.0, 10.0, 500.0}, 4).alone, (Indices{0, 2, 1}));
+    // one thread: nothing to share
+    s = shareOutNetworks(stress, 1);
+    EXPECT_TRUE(s.alone.empty());
+    EXPECT_EQ(s.together, (Indices{0, 1, 2, 3}));
+    EXPECT_TRUE(shareOutNetworks({}, 4).together.empty());
+}
+
+// A mass costs about 10 times as much under implicit Euler as under symplectic Euler, and an explicit
+// method as many times as it evaluates the forces.
+TEST(SpringSystem, ANetworksWorkIsItsMassesTimesWhatItsIntegratorCostsAMass) {
+    SpringNetwork net;
+    net.x.resize(100);
+    const std::pair<Integrator, double> costs[] = {{Integrator::SymplecticEuler, 100.0},
+                                                   {Integrator::ExplicitEuler, 100.0},
+                                                   {Integrator::Midpoint, 200.0},
+                                                   {Integrator::Rk4, 400.0},
+                                                   {Integrator::ImplicitEuler, 1000.0}};
+    for (const auto& [integrator, work] : costs) {
+        net.integrator = integrator;
+        EXPECT_EQ(networkWork(net), work) << integratorName(integrator);
+    }
 }
 } // namespace
 } // namespace tumble
