@@ -130,7 +130,7 @@ const __m128 kKeepXyz = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
 inline __m128 blockTimes(const Mat3T<float>& m, __m128 v) {
     __m128 r = _mm_mul_ps(_mm_loadu_ps(&m.m[0]), _mm_shuffle_ps(v, v, 0x00));
     r = _mm_add_ps(r, _mm_mul_ps(_mm_loadu_ps(&m.m[3]), _mm_shuffle_ps(v, v, 0x55)));
-    return _mm_add_ps(r, _mm_mul_ps(_mm_loadu_ps(&m.m[6]), _mm_shuffle_ps(v, v, 0xaa)));
+    return _mm_add_ps(r, _mm_mul_ps(lastRow(m), _mm_shuffle_ps(v, v, 0xaa)));
 }
 
 template <class Row>
@@ -196,7 +196,7 @@ TUMBLE_AVX2 inline __m256 halves(__m128 lo, __m128 hi) {
 TUMBLE_AVX2 inline __m256 pairTimes(const Mat3T<float>& p, const Mat3T<float>& q, __m256 v) {
     const __m256 row0 = halves(_mm_loadu_ps(&p.m[0]), _mm_loadu_ps(&q.m[0]));
     const __m256 row1 = halves(_mm_loadu_ps(&p.m[3]), _mm_loadu_ps(&q.m[3]));
-    const __m256 row2 = halves(_mm_loadu_ps(&p.m[6]), _mm_loadu_ps(&q.m[6]));
+    const __m256 row2 = _mm256_permute_ps(halves(_mm_loadu_ps(&p.m[5]), _mm_loadu_ps(&q.m[5])), 0x39);
     __m256 r = _mm256_mul_ps(row0, _mm256_permute_ps(v, 0x00));
     r = _mm256_add_ps(r, _mm256_mul_ps(row1, _mm256_permute_ps(v, 0x55)));
     return _mm256_add_ps(r, _mm256_mul_ps(row2, _mm256_permute_ps(v, 0xaa)));

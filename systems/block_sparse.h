@@ -80,14 +80,12 @@ struct alignas(16) Vec3T<float> {
 };
 static_assert(sizeof(Vec3T<float>) == 16);
 
-/// Storage of a 3x3 block: 9 scalars, padded to 12 for float so that each row loads as one SSE register.
-template <class S>
-inline constexpr std::size_t kBlockStorage = std::is_same_v<S, float> ? 12 : 9;
-
 /// A 3x3 matrix, row-major.
 template <class S>
 struct Mat3T {
-    std::array<S, kBlockStorage<S>> m{}; ///< row-major; entries past the ninth stay zero
+    /// row-major, unpadded: a float block is 36 bytes, and the SSE kernels load its last row from the sixth
+    /// entry (lastRow), not past the ninth
+    std::array<S, 9> m{};
 
     static Mat3T identity(S s = S(1)) {
         Mat3T r;
@@ -154,6 +152,12 @@ inline Vec3T<S> symmetricTimes(const Mat3T<S>& a, const Vec3T<S>& v) {
     return a * v;
 }
 
+/// The third row of a float block in lanes 0-2 (lane 3: m[5]), loaded without reading past the block.
+inline __m128 lastRow(const Mat3T<float>& a) {
+    const __m128 t = _mm_loadu_ps(&a.m[5]);
+    return _mm_shuffle_ps(t, t, 0x39);
+}
+
 /// The float version: rows of a symmetric block are its columns, so A v = row0 v.x + row1 v.y + row2 v.z,
 /// three broadcasts, three multiplies and two adds on SSE registers; the fourth lane is cleared.
 template <>
@@ -161,7 +165,7 @@ inline Vec3T<float> symmetricTimes(const Mat3T<float>& a, const Vec3T<float>& v)
     const __m128 xv = v.simd();
     __m128 r = _mm_mul_ps(_mm_loadu_ps(&a.m[0]), _mm_shuffle_ps(xv, xv, 0x00));
     r = _mm_add_ps(r, _mm_mul_ps(_mm_loadu_ps(&a.m[3]), _mm_shuffle_ps(xv, xv, 0x55)));
-    r = _mm_add_ps(r, _mm_mul_ps(_mm_loadu_ps(&a.m[6]), _mm_shuffle_ps(xv, xv, 0xaa)));
+    r = _mm_add_ps(r, _mm_mul_ps(lastRow(a), _mm_shuffle_ps(xv, xv, 0xaa)));
     const __m128 keepXyz = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
     return Vec3T<float>(_mm_and_ps(r, keepXyz));
 }

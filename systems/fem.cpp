@@ -547,11 +547,14 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
                      ++k) {
                     addElementBlock(s, s.blockSources.items[k], ratio, sum);
                 }
-                // rows in order: each store's fourth lane (zero) is overwritten by the next row's first
+                // rows in order: each store's fourth lane (zero) is overwritten by the next row's first;
+                // the last row's three floats end the block (it holds nine)
                 float* out = a.val[block].m.data();
                 _mm_storeu_ps(out, sum.row[0]);
                 _mm_storeu_ps(out + 3, sum.row[1]);
-                _mm_storeu_ps(out + 6, sum.row[2]);
+                alignas(16) float last[4];
+                _mm_store_ps(last, sum.row[2]);
+                std::copy(last, last + 3, out + 6);
             }
         }
     });
