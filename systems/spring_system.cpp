@@ -706,8 +706,12 @@ NetworkShares shareOutNetworks(const std::vector<double>& work, int threads) {
                      [&](std::size_t a, std::size_t b) { return work[a] > work[b]; });
     NetworkShares out;
     std::vector<std::uint8_t> alone(work.size(), 0);
-    for (std::size_t i : order) {
-        if (threads <= 1 || !(work[i] * threads > left)) {
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        // an equal share: of the threads, or of the networks left if fewer (two equal networks at three
+        // threads step side by side)
+        const std::size_t i = order[k];
+        const double sharers = double(std::min(std::size_t(std::max(threads, 1)), order.size() - k));
+        if (!(work[i] * sharers > left)) {
             break;
         }
         out.alone.push_back(i);
@@ -732,8 +736,9 @@ void integrateSprings(World& world, const StepContext& ctx) {
                           ctx.profiler,
                           ctx.pool,
                           airs.empty() ? nullptr : &airs};
-    // the networks step side by side (each touches only itself); what touches bodies runs before and
-    // after, in entity order: following reads bodies, pulling adds to their impulses
+    // the largest networks step alone on every thread, the rest side by side (shareOutNetworks; each touches
+    // only itself); what touches bodies runs before and after, in entity order: following reads bodies,
+    // pulling adds to their impulses
     std::vector<NetworkStep> steps;
     world.view<const Name, SpringNetwork, SpringWorkspace>().each(
         [&](Entity, const Name& name, SpringNetwork& net, SpringWorkspace& work) {
@@ -742,12 +747,17 @@ void integrateSprings(World& world, const StepContext& ctx) {
                 steps.push_back({&name, &net, &work, false, {}});
             }
         });
+    // a SolverError freezes its network; any other error ends the run, after every network has stepped (as
+    // a loop on one thread does), the one of the first network in entity order that threw
+    std::vector<std::exception_ptr> errors(steps.size());
     auto step = [&](std::size_t i) {
         try {
             stepNetwork(*steps[i].net, *steps[i].work, env, ctx.dt);
         } catch (const SolverError& e) {
             steps[i].threw = true;
             steps[i].problem = e.what();
+        } catch (...) {
+            errors[i] = std::current_exception();
         }
     };
     WorkerPool& pool = poolOr(ctx.pool);
@@ -760,6 +770,11 @@ void integrateSprings(World& world, const StepContext& ctx) {
         step(i);
     }
     pool.forEach(shares.together.size(), 1, [&](std::size_t k) { step(shares.together[k]); });
+    for (const std::exception_ptr& error : errors) {
+        if (error) {
+            std::rethrow_exception(error);
+        }
+    }
     for (NetworkStep& s : steps) {
         if (!s.threw) {
             pullAnchors(world, *s.net, *s.work, env, ctx.dt);

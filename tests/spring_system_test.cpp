@@ -2,6 +2,7 @@
 
 #include "components/spring_network.h"
 #include "engine/name.h"
+#include "engine/run_report.h"
 #include "systems/linear_solver.h"
 #include "systems/spring_integrators.h"
 #include "systems/spring_system.h"
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <utility>
 #include <vector>
@@ -197,34 +199,87 @@ TEST(SpringSystem, TheStateHashTakesTheSolutionsTheNextFirstGuessCombines) {
 }
 
 // Which networks step alone (each on every thread) and which side by side (each on one thread): a network
-// with more than the threads' equal share of the work left steps alone, the largest first.
+// with more than an equal share of the work left (shared by the threads, or by the networks left if fewer)
+// steps alone, the largest first.
 TEST(SpringSystem, ANetworkWithMoreThanItsShareOfTheWorkStepsAloneOnEveryThread) {
     using Indices = std::vector<std::size_t>;
     // stress_cloth at two threads: the 150 x 150 cloth has more than half, then the 100 x 100 more than
-    // half of the rest, and so on down to the last
+    // half of the rest, then the 64 x 64; the last, by itself, steps on one thread either way
     const std::vector<double> stress = {12250.0, 40960.0, 100000.0, 225000.0};
     NetworkShares s = shareOutNetworks(stress, 2);
-    EXPECT_EQ(s.alone, (Indices{3, 2, 1, 0}));
-    EXPECT_TRUE(s.together.empty());
-    // at 16 threads each is more than a sixteenth of what is left
-    EXPECT_EQ(shareOutNetworks(stress, 16).alone, (Indices{3, 2, 1, 0}));
-    // equal networks share out evenly side by side: none has more than its share
+    EXPECT_EQ(s.alone, (Indices{3, 2, 1}));
+    EXPECT_EQ(s.together, (Indices{0}));
+    // at 16 threads the shares are of the networks left: the same
+    EXPECT_EQ(shareOutNetworks(stress, 16).alone, (Indices{3, 2, 1}));
+    // equal networks share out evenly side by side: none has more than its share, at as many threads as
+    // networks, fewer or more
     s = shareOutNetworks(std::vector<double>(4, 100.0), 2);
     EXPECT_TRUE(s.alone.empty());
     EXPECT_EQ(s.together, (Indices{0, 1, 2, 3}));
     EXPECT_TRUE(shareOutNetworks(std::vector<double>(16, 100.0), 16).alone.empty());
+    EXPECT_TRUE(shareOutNetworks({100.0, 100.0}, 3).alone.empty());
     // one large among small ones: it alone, then the small ones side by side, in entity order
     s = shareOutNetworks({10.0, 1000.0, 10.0, 10.0, 10.0}, 4);
     EXPECT_EQ(s.alone, (Indices{1}));
     EXPECT_EQ(s.together, (Indices{0, 2, 3, 4}));
-    // two of the same size, both more than their share: the first in entity order first (and a network left
-    // by itself has all the work left)
-    EXPECT_EQ(shareOutNetworks({500.0, 10.0, 500.0}, 4).alone, (Indices{0, 2, 1}));
+    // two of the same size, both more than their share: the first in entity order first
+    s = shareOutNetworks({500.0, 10.0, 500.0}, 4);
+    EXPECT_EQ(s.alone, (Indices{0, 2}));
+    EXPECT_EQ(s.together, (Indices{1}));
     // one thread: nothing to share
     s = shareOutNetworks(stress, 1);
     EXPECT_TRUE(s.alone.empty());
     EXPECT_EQ(s.together, (Indices{0, 1, 2, 3}));
     EXPECT_TRUE(shareOutNetworks({}, 4).together.empty());
+}
+
+// A cloth large enough to step alone on every thread beside a network that blows up and one at rest: the
+// same bits every frame and the same report at one thread (all in one loop) and at four (the cloth alone on
+// every thread, then the two small ones, as their shares say).
+TEST(SpringSystem, ABlowUpBesideANetworkSteppingAloneIsTheSameAtAnyThreadCount) {
+    const std::string scene = R"(
+[scene]
+name = "mixed"
+dt = 0.0166666667
+[[entity]]
+name = "bob"
+[entity.springs]
+integrator = "explicit_euler"
+masses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]
+links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]
+[[entity]]
+name = "sheet"
+[entity.cloth]
+rows = 24
+cols = 24
+size = [1.0, 1.0]
+plane = "xy"
+mass = 1.0
+stretch = 2000.0
+pin = "top-row"
+integrator = "implicit_euler"
+[[entity]]
+name = "calm"
+[entity.springs]
+masses = [ { x = [0, 5, 0] } ]
+)";
+    auto run = [&](int threads) {
+        auto sim = makeSimulation(scene);
+        sim->setThreads(threads);
+        std::vector<std::uint64_t> hashes;
+        for (int f = 0; f < 60; ++f) {
+            sim->runFrame();
+            hashes.push_back(sim->hash());
+        }
+        EXPECT_TRUE(network(*sim, "bob").frozen);
+        EXPECT_FALSE(network(*sim, "sheet").frozen);
+        return std::make_pair(hashes, sim->world().resource<RunReport>().failures);
+    };
+    const auto one = run(1);
+    const auto four = run(4);
+    EXPECT_EQ(one.first, four.first);
+    ASSERT_EQ(one.second.size(), 1u);
+    EXPECT_EQ(one.second, four.second);
 }
 
 // A mass costs about 10 times as much under implicit Euler as under symplectic Euler, and an explicit
