@@ -133,53 +133,82 @@ inline __m128 blockTimes(const Mat3T<float>& m, __m128 v) {
     return _mm_add_ps(r, _mm_mul_ps(lastRow(m), _mm_shuffle_ps(v, v, 0xaa)));
 }
 
-template <class Row>
-inline __m128 rowSumSse2(const BlockMatrix<float>& a, const Vec3T<float>* x, const Row& row) {
+/// Blocks as stored: nine floats each.
+struct FullBlocks {
+    const Mat3T<float>* val;
+    __m128 times(std::uint32_t k, __m128 v) const { return blockTimes(val[k], v); }
+    const float* at(std::uint32_t k) const { return val[k].m.data(); }
+};
+
+/// Blocks from their upper triangles (BlockMatrix::packed, six floats each): row0 = (a00 a01 a02) is the
+/// first four floats, row1 = (a01 a11 a12) and row2 = (a02 a12 a22) are shuffled from the first four and
+/// the four from the third. The same numbers in lanes 0-2 as FullBlocks, so the same bits.
+struct PackedBlocks {
+    const float* sym;
+    static __m128 row1(__m128 t0, __m128 t1) { return _mm_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 1)); }
+    static __m128 row2(__m128 t1) { return _mm_shuffle_ps(t1, t1, _MM_SHUFFLE(0, 3, 2, 0)); }
+    __m128 times(std::uint32_t k, __m128 v) const {
+        const float* s = sym + 6 * std::size_t(k);
+        const __m128 t0 = _mm_loadu_ps(s), t1 = _mm_loadu_ps(s + 2);
+        __m128 r = _mm_mul_ps(t0, _mm_shuffle_ps(v, v, 0x00));
+        r = _mm_add_ps(r, _mm_mul_ps(row1(t0, t1), _mm_shuffle_ps(v, v, 0x55)));
+        return _mm_add_ps(r, _mm_mul_ps(row2(t1), _mm_shuffle_ps(v, v, 0xaa)));
+    }
+};
+
+template <class Blocks, class Row>
+inline __m128 rowSumSse2(const BlockMatrix<float>& a, const Blocks& blocks, const Vec3T<float>* x,
+                         const Row& row) {
     __m128 even = _mm_setzero_ps(), odd = _mm_setzero_ps();
     const std::uint32_t count = row.count();
     std::uint32_t k = 0;
     for (; k + 1 < count; k += 2) {
         const std::uint32_t p = row.at(k), q = row.at(k + 1);
-        even = _mm_add_ps(even, blockTimes(a.val[p], x[a.col[p]].simd()));
-        odd = _mm_add_ps(odd, blockTimes(a.val[q], x[a.col[q]].simd()));
+        even = _mm_add_ps(even, blocks.times(p, x[a.col[p]].simd()));
+        odd = _mm_add_ps(odd, blocks.times(q, x[a.col[q]].simd()));
     }
     if (k < count) {
         const std::uint32_t p = row.at(k);
-        even = _mm_add_ps(even, blockTimes(a.val[p], x[a.col[p]].simd()));
+        even = _mm_add_ps(even, blocks.times(p, x[a.col[p]].simd()));
     }
     return _mm_add_ps(even, odd);
 }
 
-void multiplySse2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* y, std::uint32_t first,
-                  std::uint32_t end) {
+template <class Blocks>
+void multiplySse2(const BlockMatrix<float>& a, const Blocks& blocks, const Vec3T<float>* x, Vec3T<float>* y,
+                  std::uint32_t first, std::uint32_t end) {
     for (std::uint32_t i = first; i < end; ++i) {
-        y[i] = Vec3T<float>(_mm_and_ps(rowSumSse2(a, x, wholeRow(a, i)), kKeepXyz));
+        y[i] = Vec3T<float>(_mm_and_ps(rowSumSse2(a, blocks, x, wholeRow(a, i)), kKeepXyz));
     }
 }
 
-void smoothSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b, Vec3T<float>* x,
-                std::uint32_t first, std::uint32_t end, bool forward) {
+template <class Blocks>
+void smoothSse2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
+                const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
+                bool forward) {
     for (std::uint32_t k = first; k < end; ++k) {
         const std::uint32_t i = forward ? k : end - 1 - (k - first);
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, x, offDiagonal(a, i)));
+        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, blocks, x, offDiagonal(a, i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
     }
 }
 
-template <class Rows>
-void forwardSse2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b,
-                 Vec3T<float>* x, std::uint32_t first, std::uint32_t end, Rows before) {
+template <class Blocks, class Rows>
+void forwardSse2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
+                 const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
+                 Rows before) {
     for (std::uint32_t i = first; i < end; ++i) {
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, x, before(i)));
+        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, blocks, x, before(i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
     }
 }
 
-template <class Rows>
-void residualSse2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* r, std::uint32_t first,
-                  std::uint32_t end, Rows after) {
+template <class Blocks, class Rows>
+void residualSse2(const BlockMatrix<float>& a, const Blocks& blocks, const Vec3T<float>* x, Vec3T<float>* r,
+                  std::uint32_t first, std::uint32_t end, Rows after) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<float>(_mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumSse2(a, x, after(i))), kKeepXyz));
+        r[i] = Vec3T<float>(
+            _mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumSse2(a, blocks, x, after(i))), kKeepXyz));
     }
 }
 
@@ -192,65 +221,87 @@ TUMBLE_AVX2 inline __m256 halves(__m128 lo, __m128 hi) {
     return _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
 }
 
-/// blockTimes of two blocks at once: p with the low half of v, q with the high half.
-TUMBLE_AVX2 inline __m256 pairTimes(const Mat3T<float>& p, const Mat3T<float>& q, __m256 v) {
-    const __m256 row0 = halves(_mm_loadu_ps(&p.m[0]), _mm_loadu_ps(&q.m[0]));
-    const __m256 row1 = halves(_mm_loadu_ps(&p.m[3]), _mm_loadu_ps(&q.m[3]));
-    const __m256 row2 = _mm256_permute_ps(halves(_mm_loadu_ps(&p.m[5]), _mm_loadu_ps(&q.m[5])), 0x39);
+/// (row0 v.x + row1 v.y) + row2 v.z for two blocks at once, their rows given: p's in the low halves, with
+/// the low half of v, q's in the high halves.
+TUMBLE_AVX2 inline __m256 pairRowsTimes(__m256 row0, __m256 row1, __m256 row2, __m256 v) {
     __m256 r = _mm256_mul_ps(row0, _mm256_permute_ps(v, 0x00));
     r = _mm256_add_ps(r, _mm256_mul_ps(row1, _mm256_permute_ps(v, 0x55)));
     return _mm256_add_ps(r, _mm256_mul_ps(row2, _mm256_permute_ps(v, 0xaa)));
 }
 
-template <class Row>
-TUMBLE_AVX2 inline __m128 rowSumAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, const Row& row) {
+/// blockTimes of two blocks at once: p with the low half of v, q with the high half.
+TUMBLE_AVX2 inline __m256 pairTimes(const FullBlocks& blocks, std::uint32_t p, std::uint32_t q, __m256 v) {
+    const float* a = blocks.at(p);
+    const float* b = blocks.at(q);
+    return pairRowsTimes(halves(_mm_loadu_ps(a), _mm_loadu_ps(b)),
+                         halves(_mm_loadu_ps(a + 3), _mm_loadu_ps(b + 3)),
+                         _mm256_permute_ps(halves(_mm_loadu_ps(a + 5), _mm_loadu_ps(b + 5)), 0x39), v);
+}
+
+/// The same from the upper triangles: PackedBlocks' shuffles, lane by lane in each half.
+TUMBLE_AVX2 inline __m256 pairTimes(const PackedBlocks& blocks, std::uint32_t p, std::uint32_t q, __m256 v) {
+    const float* a = blocks.sym + 6 * std::size_t(p);
+    const float* b = blocks.sym + 6 * std::size_t(q);
+    const __m256 t0 = halves(_mm_loadu_ps(a), _mm_loadu_ps(b));
+    const __m256 t1 = halves(_mm_loadu_ps(a + 2), _mm_loadu_ps(b + 2));
+    return pairRowsTimes(t0, _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 1)),
+                         _mm256_shuffle_ps(t1, t1, _MM_SHUFFLE(0, 3, 2, 0)), v);
+}
+
+template <class Blocks, class Row>
+TUMBLE_AVX2 inline __m128 rowSumAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Vec3T<float>* x,
+                                     const Row& row) {
     __m256 both = _mm256_setzero_ps();
     const std::uint32_t count = row.count();
     std::uint32_t k = 0;
     for (; k + 1 < count; k += 2) {
         const std::uint32_t p = row.at(k), q = row.at(k + 1);
-        both = _mm256_add_ps(both,
-                             pairTimes(a.val[p], a.val[q], halves(x[a.col[p]].simd(), x[a.col[q]].simd())));
+        both = _mm256_add_ps(both, pairTimes(blocks, p, q, halves(x[a.col[p]].simd(), x[a.col[q]].simd())));
     }
     __m128 even = _mm256_castps256_ps128(both);
     const __m128 odd = _mm256_extractf128_ps(both, 1);
     if (k < count) {
         const std::uint32_t p = row.at(k);
-        even = _mm_add_ps(even, blockTimes(a.val[p], x[a.col[p]].simd()));
+        even = _mm_add_ps(even, blocks.times(p, x[a.col[p]].simd()));
     }
     return _mm_add_ps(even, odd);
 }
 
-TUMBLE_AVX2 void multiplyAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* y,
-                              std::uint32_t first, std::uint32_t end) {
+template <class Blocks>
+TUMBLE_AVX2 void multiplyAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Vec3T<float>* x,
+                              Vec3T<float>* y, std::uint32_t first, std::uint32_t end) {
     for (std::uint32_t i = first; i < end; ++i) {
-        y[i] = Vec3T<float>(_mm_and_ps(rowSumAvx2(a, x, wholeRow(a, i)), kKeepXyz));
+        y[i] = Vec3T<float>(_mm_and_ps(rowSumAvx2(a, blocks, x, wholeRow(a, i)), kKeepXyz));
     }
 }
 
-TUMBLE_AVX2 void smoothAvx2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b,
-                            Vec3T<float>* x, std::uint32_t first, std::uint32_t end, bool forward) {
+template <class Blocks>
+TUMBLE_AVX2 void smoothAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
+                            const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
+                            bool forward) {
     for (std::uint32_t k = first; k < end; ++k) {
         const std::uint32_t i = forward ? k : end - 1 - (k - first);
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, x, offDiagonal(a, i)));
+        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, blocks, x, offDiagonal(a, i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
     }
 }
 
-template <class Rows>
-TUMBLE_AVX2 void forwardAvx2(const BlockMatrix<float>& a, const Mat3T<float>* dinv, const Vec3T<float>* b,
-                             Vec3T<float>* x, std::uint32_t first, std::uint32_t end, Rows before) {
+template <class Blocks, class Rows>
+TUMBLE_AVX2 void forwardAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
+                             const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
+                             Rows before) {
     for (std::uint32_t i = first; i < end; ++i) {
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, x, before(i)));
+        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, blocks, x, before(i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
     }
 }
 
-template <class Rows>
-TUMBLE_AVX2 void residualAvx2(const BlockMatrix<float>& a, const Vec3T<float>* x, Vec3T<float>* r,
-                              std::uint32_t first, std::uint32_t end, Rows after) {
+template <class Blocks, class Rows>
+TUMBLE_AVX2 void residualAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Vec3T<float>* x,
+                              Vec3T<float>* r, std::uint32_t first, std::uint32_t end, Rows after) {
     for (std::uint32_t i = first; i < end; ++i) {
-        r[i] = Vec3T<float>(_mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumAvx2(a, x, after(i))), kKeepXyz));
+        r[i] = Vec3T<float>(
+            _mm_and_ps(_mm_sub_ps(_mm_setzero_ps(), rowSumAvx2(a, blocks, x, after(i))), kKeepXyz));
     }
 }
 
@@ -260,13 +311,25 @@ bool useAvx2() {
     return activeSimd() == Simd::Avx2;
 }
 
+/// Calls f with the float matrix's blocks: its upper triangles where it was packed, else as stored.
+template <class F>
+void withBlocks(const BlockMatrix<float>& a, F&& f) {
+    if (a.isPacked()) {
+        f(PackedBlocks{a.packed.data()});
+    } else {
+        f(FullBlocks{a.val.data()});
+    }
+}
+
 } // namespace
 
 template <class S>
 void multiplyRows(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* y, std::uint32_t first,
                   std::uint32_t end) {
     if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? multiplyAvx2(a, x, y, first, end) : multiplySse2(a, x, y, first, end);
+        withBlocks(a, [&](const auto& blocks) {
+            useAvx2() ? multiplyAvx2(a, blocks, x, y, first, end) : multiplySse2(a, blocks, x, y, first, end);
+        });
     } else {
         multiplyPlain(a, x, y, first, end);
     }
@@ -276,8 +339,10 @@ template <class S>
 void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                 std::uint32_t first, std::uint32_t end, bool forward) {
     if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? smoothAvx2(a, dinv, b, x, first, end, forward)
-                  : smoothSse2(a, dinv, b, x, first, end, forward);
+        withBlocks(a, [&](const auto& blocks) {
+            useAvx2() ? smoothAvx2(a, blocks, dinv, b, x, first, end, forward)
+                      : smoothSse2(a, blocks, dinv, b, x, first, end, forward);
+        });
     } else {
         smoothPlain(a, dinv, b, x, first, end, forward);
     }
@@ -289,8 +354,10 @@ template <class S, class Rows>
 void forwardWith(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                  std::uint32_t first, std::uint32_t end, Rows before) {
     if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? forwardAvx2(a, dinv, b, x, first, end, before)
-                  : forwardSse2(a, dinv, b, x, first, end, before);
+        withBlocks(a, [&](const auto& blocks) {
+            useAvx2() ? forwardAvx2(a, blocks, dinv, b, x, first, end, before)
+                      : forwardSse2(a, blocks, dinv, b, x, first, end, before);
+        });
     } else {
         forwardPlain(a, dinv, b, x, first, end, before);
     }
@@ -300,7 +367,10 @@ template <class S, class Rows>
 void residualWith(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::uint32_t first,
                   std::uint32_t end, Rows after) {
     if constexpr (std::is_same_v<S, float>) {
-        useAvx2() ? residualAvx2(a, x, r, first, end, after) : residualSse2(a, x, r, first, end, after);
+        withBlocks(a, [&](const auto& blocks) {
+            useAvx2() ? residualAvx2(a, blocks, x, r, first, end, after)
+                      : residualSse2(a, blocks, x, r, first, end, after);
+        });
     } else {
         residualPlain(a, x, r, first, end, after);
     }

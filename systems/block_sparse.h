@@ -178,6 +178,14 @@ struct BlockMatrix {
     std::vector<std::uint32_t> col;      ///< block column of each stored block, ascending within a row
     std::vector<std::uint32_t> diag;     ///< index of the diagonal block of each row
     std::vector<Mat3T<S>> val;           ///< the blocks
+    /// When every block is symmetric, their upper triangles (m00 m01 m02 m11 m12 m22), six scalars a block:
+    /// the float kernels read these instead of val (24 bytes a block instead of 36; the sweeps over a large
+    /// cloth's matrix go as the bytes they read). packSymmetric (linear_solver.h) fills them from val;
+    /// whoever then changes val must pack again or clear them.
+    std::vector<S> packed;
+
+    /// Whether `packed` holds every block's upper triangle.
+    bool isPacked() const { return !val.empty() && packed.size() == 6 * val.size(); }
 
     /// The pattern with the diagonal and both (i, j) and (j, i) for every pair; values zero.
     static BlockMatrix fromPairs(std::uint32_t n, std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs);

@@ -3,8 +3,10 @@
 #include "systems/block_kernels.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 namespace tumble {
 
@@ -334,6 +336,36 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
 }
 
 template <class S>
+bool packSymmetric(BlockMatrix<S>& a, WorkerPool& pool) {
+    a.packed.clear();
+    if constexpr (!std::is_same_v<S, float>) {
+        return false; // the double kernels are plain code, reading val
+    } else {
+        if (a.n < kPackedRows) {
+            return false;
+        }
+        const std::size_t blocks = a.val.size();
+        a.packed.resize(6 * blocks);
+        const std::size_t asymmetric =
+            pool.sum(blocks, 4096, std::size_t(0), [&](std::size_t first, std::size_t end) {
+                std::size_t count = 0;
+                for (std::size_t k = first; k < end; ++k) {
+                    const std::array<float, 9>& m = a.val[k].m;
+                    count += m[1] != m[3] || m[2] != m[6] || m[5] != m[7];
+                    float* out = a.packed.data() + 6 * k;
+                    out[0] = m[0], out[1] = m[1], out[2] = m[2], out[3] = m[4], out[4] = m[5], out[5] = m[8];
+                }
+                return count;
+            });
+        if (asymmetric > 0) {
+            a.packed.clear();
+            return false;
+        }
+        return true;
+    }
+}
+
+template <class S>
 void AggregationMultigrid<S>::update(const BlockMatrix<S>& a, WorkerPool& pool) {
     m_fine = &a;
     if (!m_built) {
@@ -343,6 +375,14 @@ void AggregationMultigrid<S>::update(const BlockMatrix<S>& a, WorkerPool& pool) 
         for (Level& level : m_levels) {
             galerkin(*finer, level.sources.start, level.sources.items, level.a, pool);
             finer = &level.a;
+        }
+    }
+    // a coarse level of a packed matrix is symmetric block by block too (sums of its blocks)
+    for (Level& level : m_levels) {
+        if (a.isPacked()) {
+            packSymmetric(level.a, pool);
+        } else {
+            level.a.packed.clear();
         }
     }
     invertDiagonal(a, m_fineDiagInverse, pool);
@@ -730,6 +770,8 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
     return stats;
 }
 
+template bool packSymmetric(BlockMatrix<float>&, WorkerPool&);
+template bool packSymmetric(BlockMatrix<double>&, WorkerPool&);
 template class AggregationMultigrid<float>;
 template class AggregationMultigrid<double>;
 template SolveStats solvePcg(const BlockMatrix<float>&, const std::vector<Vec3T<float>>&,

@@ -192,6 +192,7 @@ SolveStats implicitEuler(SpringNetwork& net, SpringWorkspace& work, ImplicitSolv
     });
 
     stage.emplace(env.profiler, "springs.solve");
+    packSymmetric(a, pool);
     w.multigrid.update(a, pool);
     const SolveStats stats =
         solvePcg(a, w.rhs, w.dv, w.multigrid, net.pinned, net.cgTolerance, net.cgMaxIterations, w.pcg, pool);

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <vector>
 
 namespace tumble {
 namespace {
@@ -293,6 +294,93 @@ TEST(BlockKernels, AWholeSolveHasTheSameBitsWithEitherInstructionSet) {
             return x;
         },
         "the solution");
+}
+
+/// Runs fn with the matrix as stored and packed (its blocks' upper triangles, BlockMatrix::packed), under
+/// each instruction set this processor has, and compares the two bit for bit.
+void expectPackedSameBits(const BlockMatrix<float>& a,
+                          const std::function<std::vector<Vec3T<float>>(const BlockMatrix<float>&)>& fn,
+                          const char* what) {
+    BlockMatrix<float> packed = a;
+    ASSERT_TRUE(packSymmetric(packed));
+    ASSERT_TRUE(packed.isPacked());
+    ASSERT_FALSE(a.isPacked());
+    const Simd before = activeSimd();
+    std::vector<Simd> sets{Simd::Sse2};
+    if (avx2Available()) {
+        sets.push_back(Simd::Avx2);
+    }
+    for (Simd set : sets) {
+        forceSimd(set);
+        const std::vector<Vec3T<float>> want = fn(a), got = fn(packed);
+        ASSERT_EQ(want.size(), got.size());
+        EXPECT_EQ(std::memcmp(want.data(), got.data(), want.size() * sizeof(want[0])), 0)
+            << what << (set == Simd::Avx2 ? " (AVX2)" : " (SSE2)");
+    }
+    forceSimd(before);
+}
+
+TEST(BlockKernels, PackedUpperTrianglesGiveTheBitsOfTheStoredBlocks) {
+    const std::uint32_t n = kPackedRows + 7;
+    const BlockMatrix<float> a = randomMatrix(n, 21);
+    const auto x0 = randomVector(n, 22), b = randomVector(n, 23);
+    const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
+    expectPackedSameBits(
+        a,
+        [&](const BlockMatrix<float>& m) {
+            std::vector<Vec3T<float>> y(n);
+            kernels::multiplyRows(m, x0.data(), y.data(), 0, n);
+            return y;
+        },
+        "product");
+    expectPackedSameBits(
+        a,
+        [&](const BlockMatrix<float>& m) {
+            std::vector<Vec3T<float>> x(n), r(n);
+            kernels::forwardRowsFromZero(m, dinv.data(), b.data(), x.data(), 0, n);
+            kernels::residualAfterForward(m, x.data(), r.data(), 0, n);
+            x.insert(x.end(), r.begin(), r.end());
+            return x;
+        },
+        "forward sweep and residual");
+    expectPackedSameBits(
+        a,
+        [&](const BlockMatrix<float>& m) {
+            std::vector<Vec3T<float>> x = x0;
+            kernels::smoothRows(m, dinv.data(), b.data(), x.data(), 0, n, true);
+            kernels::smoothRows(m, dinv.data(), b.data(), x.data(), 0, n, false);
+            return x;
+        },
+        "sweeps");
+    const std::vector<std::uint8_t> fixed(n, 0);
+    expectPackedSameBits(
+        a,
+        [&](const BlockMatrix<float>& m) {
+            AggregationMultigrid<float> mg;
+            mg.update(m);
+            std::vector<Vec3T<float>> x(n);
+            PcgVectors<float> work;
+            EXPECT_TRUE(solvePcg(m, b, x, mg, fixed, 1e-5, 100, work).converged);
+            return x;
+        },
+        "a whole solve");
+}
+
+TEST(BlockKernels, OnlyALargeMatrixOfSymmetricBlocksIsPacked) {
+    BlockMatrix<float> small = randomMatrix(kPackedRows - 1, 24);
+    EXPECT_FALSE(packSymmetric(small));
+    EXPECT_TRUE(small.packed.empty());
+    BlockMatrix<float> a = randomMatrix(kPackedRows, 25);
+    ASSERT_TRUE(packSymmetric(a));
+    // one block's (0, 2) entry off its (2, 0) by one unit in the last place: not packed (an fem body's
+    // blocks are not symmetric), and what was packed before is cleared
+    const std::uint32_t k = a.rowStart[100] + 1;
+    a.val[k].m[2] = std::nextafter(a.val[k].m[6], 1e9f);
+    EXPECT_FALSE(packSymmetric(a));
+    EXPECT_FALSE(a.isPacked());
+    // nor a double matrix: its kernels are plain code
+    BlockMatrix<double> d = BlockMatrix<double>::fromPairs(kPackedRows, {});
+    EXPECT_FALSE(packSymmetric(d));
 }
 
 } // namespace
