@@ -95,6 +95,7 @@ std::uint32_t BlockMatrix<S>::find(std::uint32_t i, std::uint32_t j) const {
 template <class S>
 void BlockMatrix<S>::setZero() {
     std::fill(val.begin(), val.end(), Mat3T<S>{});
+    packed.clear();
 }
 
 template <class S>

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 #include <type_traits>
@@ -337,21 +338,26 @@ void AggregationMultigrid<S>::build(const BlockMatrix<S>& fine) {
 
 template <class S>
 bool packSymmetric(BlockMatrix<S>& a, WorkerPool& pool) {
-    a.packed.clear();
     if constexpr (!std::is_same_v<S, float>) {
+        a.packed.clear();
         return false; // the double kernels are plain code, reading val
     } else {
         if (a.n < kPackedRows) {
+            a.packed.clear();
             return false;
         }
         const std::size_t blocks = a.val.size();
-        a.packed.resize(6 * blocks);
+        a.packed.resize(6 * blocks); // step after step the same size: no pass of its own
+        // bit for bit: -0 and +0 compare equal, and the packed rows must be the stored ones to the bit
+        auto same = [](float u, float v) {
+            return std::bit_cast<std::uint32_t>(u) == std::bit_cast<std::uint32_t>(v);
+        };
         const std::size_t asymmetric =
             pool.sum(blocks, 4096, std::size_t(0), [&](std::size_t first, std::size_t end) {
                 std::size_t count = 0;
                 for (std::size_t k = first; k < end; ++k) {
                     const std::array<float, 9>& m = a.val[k].m;
-                    count += m[1] != m[3] || m[2] != m[6] || m[5] != m[7];
+                    count += !(same(m[1], m[3]) && same(m[2], m[6]) && same(m[5], m[7]));
                     float* out = a.packed.data() + 6 * k;
                     out[0] = m[0], out[1] = m[1], out[2] = m[2], out[3] = m[4], out[4] = m[5], out[5] = m[8];
                 }

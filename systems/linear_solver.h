@@ -71,6 +71,8 @@ public:
     std::pair<std::uint32_t, std::size_t> levelSize(std::size_t level) const {
         return {m_levels[level - 1].a.n, m_levels[level - 1].a.col.size()};
     }
+    /// Whether a coarse level's blocks are packed (BlockMatrix::packed; 1 = the first coarse one).
+    bool levelPacked(std::size_t level) const { return m_levels[level - 1].a.isPacked(); }
 
 private:
     /// Lists in compressed-row form: the entries of item i are items[start[i] .. start[i + 1]).
@@ -161,9 +163,11 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
                     double tol, int maxIterations, PcgVectors<S>& work, WorkerPool& pool = serialPool());
 
 /// Fills a.packed (BlockMatrix::packed) from a.val when a has kPackedRows rows or more and every block is
-/// exactly symmetric (the springs' are: sums of h kd u u^T + h^2 K and diagonal terms; an fem body's are
-/// not), else clears it; says which. Packed or not, the kernels give the same bits. A multigrid over a
-/// packed matrix packs its coarse levels too (AggregationMultigrid::update).
+/// symmetric to the bit (the springs' are: sums of h kd u u^T + h^2 K and diagonal terms, each entry
+/// formed as its mirror is), else clears it; says which. Packed or not, the kernels give the same bits.
+/// The spring integrator packs its matrix each step; an fem body never does (its blocks are not
+/// symmetric). A multigrid over a packed matrix packs its coarse levels of kPackedRows rows or more too
+/// (AggregationMultigrid::update).
 template <class S>
 bool packSymmetric(BlockMatrix<S>& a, WorkerPool& pool = serialPool());
 /// Matrices smaller than this stay unpacked (small networks, the multigrid's small coarse levels: the

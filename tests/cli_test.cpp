@@ -206,16 +206,8 @@ TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
 }
 
 TEST(Cli, ABlowUpIsSaidOnceTheRunGoesOnAndExitsOne) {
-    const std::string scene = writeTemp("boom.toml", R"(
-[scene]
-name = "boom"
-[[entity]]
-name = "bob"
-[entity.springs]
-integrator = "explicit_euler"
-masses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]
-links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]
-)");
+    const std::string scene =
+        writeTemp("boom.toml", std::string("[scene]\nname = \"boom\"\n") + test::kBlowingUpBob);
     const std::string dump = tempPath("boom.jsonl");
     const auto r = runTumble(
         {"run", scene, "--no-render", "--frames", "120", "--dump", dump, "--out", tempPath("boom")});

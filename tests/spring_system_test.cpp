@@ -198,6 +198,19 @@ TEST(SpringSystem, TheStateHashTakesTheSolutionsTheNextFirstGuessCombines) {
     EXPECT_EQ(sim->hash(), before);
 }
 
+// A cloth's matrix (1225 masses: the curtain) is read from its blocks' upper triangles: each entry of its
+// assembly is formed as its mirror is, to the bit (else the step would run on the stored blocks, as
+// fast as before the packing, and no other test would see it).
+TEST(SpringSystem, AClothsMatrixIsPackedAsItsBlocksAreSymmetric) {
+    auto sim = test::makeSimulation(test::readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml"));
+    for (int i = 0; i < 3; ++i) {
+        sim->runFrame();
+    }
+    const SpringWorkspace& work = test::component<SpringWorkspace>(*sim, "curtain");
+    EXPECT_GE(work.single.system.n, kPackedRows);
+    EXPECT_TRUE(work.single.system.isPacked());
+}
+
 // Which networks step alone (each on every thread) and which side by side (each on one thread): a network
 // with more than an equal share of the work left (shared by the threads, or by the networks left if fewer)
 // steps alone, the largest first.
@@ -237,16 +250,8 @@ TEST(SpringSystem, ANetworkWithMoreThanItsShareOfTheWorkStepsAloneOnEveryThread)
 // same bits every frame and the same report at one thread (all in one loop) and at four (the cloth alone on
 // every thread, then the two small ones, as their shares say).
 TEST(SpringSystem, ABlowUpBesideANetworkSteppingAloneIsTheSameAtAnyThreadCount) {
-    const std::string scene = R"(
-[scene]
-name = "mixed"
-dt = 0.0166666667
-[[entity]]
-name = "bob"
-[entity.springs]
-integrator = "explicit_euler"
-masses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]
-links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]
+    const std::string scene =
+        std::string("[scene]\nname = \"mixed\"\ndt = 0.0166666667\n") + test::kBlowingUpBob + R"(
 [[entity]]
 name = "sheet"
 [entity.cloth]

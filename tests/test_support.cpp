@@ -39,6 +39,15 @@ std::string readFile(const std::string& path) {
     return ss.str();
 }
 
+const char* const kBlowingUpBob = R"(
+[[entity]]
+name = "bob"
+[entity.springs]
+integrator = "explicit_euler"
+masses = [ { x = [0, 0, 0], pinned = true }, { x = [1.5, 0, 0] } ]
+links = [ { a = 0, b = 1, rest = 1.0, k = 1e6 } ]
+)";
+
 std::string slideAcrossAPull(const std::string& bodyTables) {
     return R"(
 [scene]
