@@ -247,34 +247,42 @@ TEST(BlockKernels, ASweepFromZeroInAnyOrderIsGaussSeidelInThatOrder) {
     expectSameBits(sweep, "a sweep in another order and its residual");
 }
 
+/// What the bit-for-bit tests run over every row of a matrix: its product with x0, the forward sweep from
+/// zero with its residual, and a forward then a backward sweep from x0.
+enum class KernelRun { Product, ForwardAndResidual, Sweeps };
+constexpr KernelRun kKernelRuns[] = {KernelRun::Product, KernelRun::ForwardAndResidual, KernelRun::Sweeps};
+constexpr const char* kKernelRunNames[] = {"product", "forward sweep and residual", "sweeps"};
+
+std::vector<Vec3T<float>> runKernel(KernelRun run, const BlockMatrix<float>& m,
+                                    const std::vector<Mat3T<float>>& dinv,
+                                    const std::vector<Vec3T<float>>& x0, const std::vector<Vec3T<float>>& b) {
+    const std::uint32_t n = m.n;
+    std::vector<Vec3T<float>> x(n), r(n);
+    switch (run) {
+    case KernelRun::Product:
+        kernels::multiplyRows(m, x0.data(), x.data(), 0, n);
+        break;
+    case KernelRun::ForwardAndResidual:
+        kernels::forwardRowsFromZero(m, dinv.data(), b.data(), x.data(), 0, n);
+        kernels::residualAfterForward(m, x.data(), r.data(), 0, n);
+        x.insert(x.end(), r.begin(), r.end());
+        break;
+    case KernelRun::Sweeps:
+        x = x0;
+        kernels::smoothRows(m, dinv.data(), b.data(), x.data(), 0, n, true);
+        kernels::smoothRows(m, dinv.data(), b.data(), x.data(), 0, n, false);
+        break;
+    }
+    return x;
+}
+
 TEST(BlockKernels, Sse2AndAvx2GiveTheSameBits) {
     const BlockMatrix<float> a = randomMatrix(kRows, 5);
     const auto x0 = randomVector(kRows, 6), b = randomVector(kRows, 7);
     const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
-    expectSameBits(
-        [&] {
-            std::vector<Vec3T<float>> y(kRows);
-            kernels::multiplyRows(a, x0.data(), y.data(), 0, kRows);
-            return y;
-        },
-        "product");
-    expectSameBits(
-        [&] {
-            std::vector<Vec3T<float>> x(kRows), r(kRows);
-            kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), 0, kRows);
-            kernels::residualAfterForward(a, x.data(), r.data(), 0, kRows);
-            x.insert(x.end(), r.begin(), r.end());
-            return x;
-        },
-        "forward sweep and residual");
-    expectSameBits(
-        [&] {
-            std::vector<Vec3T<float>> x = x0;
-            kernels::smoothRows(a, dinv.data(), b.data(), x.data(), 0, kRows, true);
-            kernels::smoothRows(a, dinv.data(), b.data(), x.data(), 0, kRows, false);
-            return x;
-        },
-        "sweeps");
+    for (KernelRun run : kKernelRuns) {
+        expectSameBits([&] { return runKernel(run, a, dinv, x0, b); }, kKernelRunNames[int(run)]);
+    }
 }
 
 TEST(BlockKernels, AWholeSolveHasTheSameBitsWithEitherInstructionSet) {
@@ -325,33 +333,11 @@ TEST(BlockKernels, PackedUpperTrianglesGiveTheBitsOfTheStoredBlocks) {
     const BlockMatrix<float> a = randomMatrix(n, 21);
     const auto x0 = randomVector(n, 22), b = randomVector(n, 23);
     const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
-    expectPackedSameBits(
-        a,
-        [&](const BlockMatrix<float>& m) {
-            std::vector<Vec3T<float>> y(n);
-            kernels::multiplyRows(m, x0.data(), y.data(), 0, n);
-            return y;
-        },
-        "product");
-    expectPackedSameBits(
-        a,
-        [&](const BlockMatrix<float>& m) {
-            std::vector<Vec3T<float>> x(n), r(n);
-            kernels::forwardRowsFromZero(m, dinv.data(), b.data(), x.data(), 0, n);
-            kernels::residualAfterForward(m, x.data(), r.data(), 0, n);
-            x.insert(x.end(), r.begin(), r.end());
-            return x;
-        },
-        "forward sweep and residual");
-    expectPackedSameBits(
-        a,
-        [&](const BlockMatrix<float>& m) {
-            std::vector<Vec3T<float>> x = x0;
-            kernels::smoothRows(m, dinv.data(), b.data(), x.data(), 0, n, true);
-            kernels::smoothRows(m, dinv.data(), b.data(), x.data(), 0, n, false);
-            return x;
-        },
-        "sweeps");
+    for (KernelRun run : kKernelRuns) {
+        expectPackedSameBits(
+            a, [&](const BlockMatrix<float>& m) { return runKernel(run, m, dinv, x0, b); },
+            kKernelRunNames[int(run)]);
+    }
 }
 
 // A multigrid over a packed matrix packs its coarse levels of kPackedRows rows or more, after their
