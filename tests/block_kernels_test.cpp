@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <utility>
 #include <vector>
 
 namespace tumble {
@@ -304,6 +305,25 @@ TEST(BlockKernels, AWholeSolveHasTheSameBitsWithEitherInstructionSet) {
         "the solution");
 }
 
+/// Under each instruction set this processor has, runs `pair` and compares its two vectors bit for bit.
+void expectPairSameBits(
+    const std::function<std::pair<std::vector<Vec3T<float>>, std::vector<Vec3T<float>>>()>& pair,
+    const char* what) {
+    const Simd before = activeSimd();
+    std::vector<Simd> sets{Simd::Sse2};
+    if (avx2Available()) {
+        sets.push_back(Simd::Avx2);
+    }
+    for (Simd set : sets) {
+        forceSimd(set);
+        const auto [want, got] = pair();
+        ASSERT_EQ(want.size(), got.size());
+        EXPECT_EQ(std::memcmp(want.data(), got.data(), want.size() * sizeof(want[0])), 0)
+            << what << (set == Simd::Avx2 ? " (AVX2)" : " (SSE2)");
+    }
+    forceSimd(before);
+}
+
 /// Runs fn with the matrix as stored and packed (its blocks' upper triangles, BlockMatrix::packed), under
 /// each instruction set this processor has, and compares the two bit for bit.
 void expectPackedSameBits(const BlockMatrix<float>& a,
@@ -313,19 +333,7 @@ void expectPackedSameBits(const BlockMatrix<float>& a,
     ASSERT_TRUE(packSymmetric(packed));
     ASSERT_TRUE(packed.isPacked());
     ASSERT_FALSE(a.isPacked());
-    const Simd before = activeSimd();
-    std::vector<Simd> sets{Simd::Sse2};
-    if (avx2Available()) {
-        sets.push_back(Simd::Avx2);
-    }
-    for (Simd set : sets) {
-        forceSimd(set);
-        const std::vector<Vec3T<float>> want = fn(a), got = fn(packed);
-        ASSERT_EQ(want.size(), got.size());
-        EXPECT_EQ(std::memcmp(want.data(), got.data(), want.size() * sizeof(want[0])), 0)
-            << what << (set == Simd::Avx2 ? " (AVX2)" : " (SSE2)");
-    }
-    forceSimd(before);
+    expectPairSameBits([&] { return std::make_pair(fn(a), fn(packed)); }, what);
 }
 
 TEST(BlockKernels, PackedUpperTrianglesGiveTheBitsOfTheStoredBlocks) {
@@ -374,18 +382,8 @@ TEST(BlockKernels, APackedMultigridSolvesWithTheBitsOfAStoredOneStepAfterStep) {
         EXPECT_TRUE(solvePcg(a, b, x, mg, fixed, 1e-5, 100, work).converged);
         return x;
     };
-    const Simd before = activeSimd();
-    std::vector<Simd> sets{Simd::Sse2};
-    if (avx2Available()) {
-        sets.push_back(Simd::Avx2);
-    }
-    for (Simd set : sets) {
-        forceSimd(set);
-        const std::vector<Vec3T<float>> stored = solve(false), packed = solve(true);
-        EXPECT_EQ(std::memcmp(stored.data(), packed.data(), n * sizeof(stored[0])), 0)
-            << (set == Simd::Avx2 ? "AVX2" : "SSE2");
-    }
-    forceSimd(before);
+    expectPairSameBits([&] { return std::make_pair(solve(false), solve(true)); },
+                       "the solve, stored and packed");
 }
 
 TEST(BlockKernels, OnlyALargeMatrixOfSymmetricBlocksIsPacked) {
