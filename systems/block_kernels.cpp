@@ -96,6 +96,21 @@ void multiplyPlain(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* y, std:
     }
 }
 
+/// Calls row(i) for the rows of two ranges in turn: the k-th of one, then the k-th of the other
+/// (forwardRowPairFromZero).
+template <class RowFn>
+inline void inTurn(RowRange one, RowRange other, RowFn row) {
+    const std::uint32_t rows = std::max(one.size(), other.size());
+    for (std::uint32_t k = 0; k < rows; ++k) {
+        if (k < one.size()) {
+            row(one.first + k);
+        }
+        if (k < other.size()) {
+            row(other.first + k);
+        }
+    }
+}
+
 template <class S>
 void smoothPlain(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                  std::uint32_t first, std::uint32_t end, bool forward) {
@@ -106,11 +121,10 @@ void smoothPlain(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* 
 }
 
 template <class S, class Rows>
-void forwardPlain(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
-                  std::uint32_t first, std::uint32_t end, Rows before) {
-    for (std::uint32_t i = first; i < end; ++i) {
-        x[i] = symmetricTimes(dinv[i], b[i] - rowSum(a, x, before(i)));
-    }
+void forwardPlain(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x, RowRange one,
+                  RowRange other, Rows before) {
+    inTurn(one, other,
+           [&](std::uint32_t i) { x[i] = symmetricTimes(dinv[i], b[i] - rowSum(a, x, before(i))); });
 }
 
 template <class S, class Rows>
@@ -195,12 +209,11 @@ void smoothSse2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<f
 
 template <class Blocks, class Rows>
 void forwardSse2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
-                 const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
-                 Rows before) {
-    for (std::uint32_t i = first; i < end; ++i) {
+                 const Vec3T<float>* b, Vec3T<float>* x, RowRange one, RowRange other, Rows before) {
+    inTurn(one, other, [&](std::uint32_t i) {
         const __m128 s = _mm_sub_ps(b[i].simd(), rowSumSse2(a, blocks, x, before(i)));
         x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
-    }
+    });
 }
 
 template <class Blocks, class Rows>
@@ -275,6 +288,15 @@ TUMBLE_AVX2 void multiplyAvx2(const BlockMatrix<float>& a, const Blocks& blocks,
     }
 }
 
+/// One row of a sweep: x_i = D_i^-1 (b_i - the sum over the blocks `row` gives).
+template <class Blocks, class Row>
+TUMBLE_AVX2 inline void sweepRowAvx2(const BlockMatrix<float>& a, const Blocks& blocks,
+                                     const Mat3T<float>* dinv, const Vec3T<float>* b, Vec3T<float>* x,
+                                     std::uint32_t i, const Row& row) {
+    const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, blocks, x, row));
+    x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
+}
+
 template <class Blocks>
 TUMBLE_AVX2 void smoothAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
                             const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
@@ -286,13 +308,19 @@ TUMBLE_AVX2 void smoothAvx2(const BlockMatrix<float>& a, const Blocks& blocks, c
     }
 }
 
+// inTurn's loop written out: a lambda would not take the AVX2 target
 template <class Blocks, class Rows>
 TUMBLE_AVX2 void forwardAvx2(const BlockMatrix<float>& a, const Blocks& blocks, const Mat3T<float>* dinv,
-                             const Vec3T<float>* b, Vec3T<float>* x, std::uint32_t first, std::uint32_t end,
+                             const Vec3T<float>* b, Vec3T<float>* x, RowRange one, RowRange other,
                              Rows before) {
-    for (std::uint32_t i = first; i < end; ++i) {
-        const __m128 s = _mm_sub_ps(b[i].simd(), rowSumAvx2(a, blocks, x, before(i)));
-        x[i] = Vec3T<float>(_mm_and_ps(blockTimes(dinv[i], s), kKeepXyz));
+    const std::uint32_t rows = std::max(one.size(), other.size());
+    for (std::uint32_t k = 0; k < rows; ++k) {
+        if (k < one.size()) {
+            sweepRowAvx2(a, blocks, dinv, b, x, one.first + k, before(one.first + k));
+        }
+        if (k < other.size()) {
+            sweepRowAvx2(a, blocks, dinv, b, x, other.first + k, before(other.first + k));
+        }
     }
 }
 
@@ -351,15 +379,15 @@ void smoothRows(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b
 namespace {
 
 template <class S, class Rows>
-void forwardWith(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
-                 std::uint32_t first, std::uint32_t end, Rows before) {
+void forwardWith(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x, RowRange one,
+                 RowRange other, Rows before) {
     if constexpr (std::is_same_v<S, float>) {
         withBlocks(a, [&](const auto& blocks) {
-            useAvx2() ? forwardAvx2(a, blocks, dinv, b, x, first, end, before)
-                      : forwardSse2(a, blocks, dinv, b, x, first, end, before);
+            useAvx2() ? forwardAvx2(a, blocks, dinv, b, x, one, other, before)
+                      : forwardSse2(a, blocks, dinv, b, x, one, other, before);
         });
     } else {
-        forwardPlain(a, dinv, b, x, first, end, before);
+        forwardPlain(a, dinv, b, x, one, other, before);
     }
 }
 
@@ -379,14 +407,20 @@ void residualWith(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::
 } // namespace
 
 template <class S>
-void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
-                         std::uint32_t first, std::uint32_t end, const SweepOrder* order) {
+void forwardRowPairFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
+                            RowRange one, RowRange other, const SweepOrder* order) {
     if (order) {
         assert(order->split.size() == a.n && order->items.size() == a.col.size() - a.n);
-        forwardWith(a, dinv, b, x, first, end, ListedBefore{a.rowStart.data(), *order});
+        forwardWith(a, dinv, b, x, one, other, ListedBefore{a.rowStart.data(), *order});
     } else {
-        forwardWith(a, dinv, b, x, first, end, BeforeBlocks<S>{a});
+        forwardWith(a, dinv, b, x, one, other, BeforeBlocks<S>{a});
     }
+}
+
+template <class S>
+void forwardRowsFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
+                         std::uint32_t first, std::uint32_t end, const SweepOrder* order) {
+    forwardRowPairFromZero(a, dinv, b, x, {first, end}, {end, end}, order);
 }
 
 template <class S>
@@ -408,6 +442,10 @@ template void smoothRows(const BlockMatrix<float>&, const Mat3T<float>*, const V
                          std::uint32_t, std::uint32_t, bool);
 template void smoothRows(const BlockMatrix<double>&, const Mat3T<double>*, const Vec3T<double>*,
                          Vec3T<double>*, std::uint32_t, std::uint32_t, bool);
+template void forwardRowPairFromZero(const BlockMatrix<float>&, const Mat3T<float>*, const Vec3T<float>*,
+                                     Vec3T<float>*, RowRange, RowRange, const SweepOrder*);
+template void forwardRowPairFromZero(const BlockMatrix<double>&, const Mat3T<double>*, const Vec3T<double>*,
+                                     Vec3T<double>*, RowRange, RowRange, const SweepOrder*);
 template void forwardRowsFromZero(const BlockMatrix<float>&, const Mat3T<float>*, const Vec3T<float>*,
                                   Vec3T<float>*, std::uint32_t, std::uint32_t, const SweepOrder*);
 template void forwardRowsFromZero(const BlockMatrix<double>&, const Mat3T<double>*, const Vec3T<double>*,

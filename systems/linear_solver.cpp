@@ -492,18 +492,32 @@ void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::
     // colour after colour, each colour's blocks at once, rows in order inside a block (forward: the first
     // sweep, as if from x = 0; backward: the exact reverse order, so the V-cycle stays symmetric). A block
     // reads other blocks of its colour nowhere, so any thread count gives the same bits.
+    //
+    // The forward sweep takes two blocks of a colour at once, a row of each in turn
+    // (kernels::forwardRowPairFromZero: a sweep from zero waits on every row), when the colour has blocks
+    // enough for every thread to get a pair; else one block at a time. Either gives the same bits: the
+    // blocks of a colour read none of each other's rows.
     const std::size_t count = colours.start.size() - 1;
+    const auto rowsOf = [&](std::uint32_t block) {
+        const std::uint32_t begin = block * colours.rows;
+        return kernels::RowRange{begin, std::min(a.n, begin + colours.rows)};
+    };
     for (std::size_t k = 0; k < count; ++k) {
         const std::size_t c = fromZero ? k : count - 1 - k;
-        const std::uint32_t first = colours.start[c];
-        pool.forEach(colours.start[c + 1] - first, 1, [&](std::size_t at) {
-            const std::uint32_t block = colours.blocks[first + at];
-            const std::uint32_t begin = block * colours.rows, end = std::min(a.n, begin + colours.rows);
+        const std::uint32_t first = colours.start[c], blocks = colours.start[c + 1] - first;
+        const std::uint32_t perTask = fromZero && blocks >= 2 * std::uint32_t(pool.threads()) ? 2 : 1;
+        pool.forEach((blocks + perTask - 1) / perTask, 1, [&](std::size_t task) {
+            const std::uint32_t at = first + std::uint32_t(task) * perTask;
+            const kernels::RowRange one = rowsOf(colours.blocks[at]);
+            const kernels::RowRange other = perTask == 2 && at + 1 < first + blocks
+                                                ? rowsOf(colours.blocks[at + 1])
+                                                : kernels::RowRange{};
             if (fromZero) {
                 // only the blocks of rows swept before a row count (x is not cleared: none other is read)
-                kernels::forwardRowsFromZero(a, dinv.data(), b.data(), x.data(), begin, end, &colours.order);
+                kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), one, other,
+                                                &colours.order);
             } else {
-                kernels::smoothRows(a, dinv.data(), b.data(), x.data(), begin, end, false);
+                kernels::smoothRows(a, dinv.data(), b.data(), x.data(), one.first, one.end, false);
             }
         });
     }

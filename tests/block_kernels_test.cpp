@@ -248,6 +248,69 @@ TEST(BlockKernels, ASweepFromZeroInAnyOrderIsGaussSeidelInThatOrder) {
     expectSameBits(sweep, "a sweep in another order and its residual");
 }
 
+/// Two random matrices side by side on the diagonal: rows [0, first) couple only among themselves, and so
+/// do the rows after them.
+BlockMatrix<float> twoMatrices(std::uint32_t first, std::uint32_t second, std::uint64_t seed) {
+    const BlockMatrix<float> parts[2] = {randomMatrix(first, seed), randomMatrix(second, seed + 1)};
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    for (std::uint32_t p = 0; p < 2; ++p) {
+        for (std::uint32_t i = 0; i < parts[p].n; ++i) {
+            for (std::uint32_t b = parts[p].rowStart[i]; b < parts[p].rowStart[i + 1]; ++b) {
+                if (parts[p].col[b] > i) {
+                    pairs.emplace_back(i + p * first, parts[p].col[b] + p * first);
+                }
+            }
+        }
+    }
+    BlockMatrix<float> a = BlockMatrix<float>::fromPairs(first + second, pairs);
+    for (std::uint32_t i = 0; i < a.n; ++i) {
+        const std::uint32_t p = i < first ? 0 : 1, offset = p * first;
+        for (std::uint32_t b = a.rowStart[i]; b < a.rowStart[i + 1]; ++b) {
+            a.val[b] = parts[p].val[parts[p].find(i - offset, a.col[b] - offset)];
+        }
+    }
+    return a;
+}
+
+TEST(BlockKernels, TwoRangesSweptInTurnGiveTheBitsOfOneSweptAfterTheOther) {
+    // two ranges that read none of each other's rows (as two blocks of one colour), the second longer
+    const std::uint32_t first = 150, n = 350;
+    const BlockMatrix<float> a = twoMatrices(first, n - first, 21);
+    const auto b = randomVector(n, 22);
+    const std::vector<Mat3T<float>> dinv = diagonalInverses(a);
+    std::vector<std::uint32_t> visit(n);
+    for (std::uint32_t k = 0; k < n; ++k) {
+        visit[k] = k;
+    }
+    const kernels::SweepOrder order = sweepOrder(a, visit);
+    for (Simd simd : {Simd::Sse2, Simd::Avx2}) {
+        if (simd == Simd::Avx2 && !avx2Available()) {
+            continue;
+        }
+        const Simd before = activeSimd();
+        forceSimd(simd);
+        for (const kernels::SweepOrder* listed : {static_cast<const kernels::SweepOrder*>(nullptr), &order}) {
+            const std::string what = std::string(simd == Simd::Avx2 ? "AVX2" : "SSE2") +
+                                     (listed ? ", rows as listed" : ", rows in order");
+            std::vector<Vec3T<float>> alone(n);
+            kernels::forwardRowsFromZero(a, dinv.data(), b.data(), alone.data(), 0, first, listed);
+            kernels::forwardRowsFromZero(a, dinv.data(), b.data(), alone.data(), first, n, listed);
+            // either range first, and one range with an empty one
+            const kernels::RowRange one{0, first}, other{first, n}, none{n, n};
+            for (auto [p, q] : {std::pair{one, other}, std::pair{other, one}}) {
+                std::vector<Vec3T<float>> x(n);
+                kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), p, q, listed);
+                EXPECT_EQ(std::memcmp(x.data(), alone.data(), n * sizeof(x[0])), 0) << what;
+            }
+            std::vector<Vec3T<float>> x(n);
+            kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), one, none, listed);
+            kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), none, other, listed);
+            EXPECT_EQ(std::memcmp(x.data(), alone.data(), n * sizeof(x[0])), 0) << what << ", one at a time";
+        }
+        forceSimd(before);
+    }
+}
+
 /// What the bit-for-bit tests run over every row of a matrix: its product with x0, the forward sweep from
 /// zero with its residual, and a forward then a backward sweep from x0.
 enum class KernelRun { Product, ForwardAndResidual, Sweeps };
