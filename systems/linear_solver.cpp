@@ -16,6 +16,12 @@ namespace {
 constexpr std::uint32_t kCoarsestRows = 8; // solved by dense Cholesky (24 x 24 at most)
 constexpr std::size_t kMaxLevels = 32;
 
+/// Rows per chunk of the solver's loops that are not sums (the V-cycle's residuals, restrictions and
+/// prolongations, CG's direction update, the diagonal inverses): small enough that the curtain's 1225 rows
+/// share out evenly over two threads (see kMassGrain); they change no bit. The products that CG sums as it
+/// goes keep kDotRows.
+constexpr std::size_t kShareRows = 128;
+
 /// Coupling strength of each stored block: the off-diagonal blocks of these matrices are -(h kd uu^T + h^2 K)
 /// sums, so minus their trace measures how strongly two rows pull on each other.
 template <class S>
@@ -151,7 +157,7 @@ void findSources(const BlockMatrix<S>& fine, const std::vector<std::uint32_t>& g
 template <class S>
 void invertDiagonal(const BlockMatrix<S>& a, std::vector<Mat3T<S>>& out, WorkerPool& pool) {
     out.resize(a.n);
-    pool.forEach(a.n, 512, [&](std::size_t i) { out[i] = a.val[a.diag[i]].inverse(); });
+    pool.forEach(a.n, kShareRows, [&](std::size_t i) { out[i] = a.val[a.diag[i]].inverse(); });
 }
 
 /// a . b over rows [first, end), in double, in index order.
@@ -219,10 +225,6 @@ void filter(std::vector<Vec3T<S>>& v, const std::vector<std::uint8_t>& fixed) {
         }
     }
 }
-
-/// Rows per chunk of the solver's element-wise loops and products: those of its dot products, so that a
-/// product and a dot product can share one pass.
-constexpr std::size_t kRows = kDotRows;
 
 /// Rows per block of a coloured level: kSmoothBlock, or an eighth of the level if that is fewer (so a level
 /// of a few thousand rows still has blocks enough to share out evenly). Fixed by the level's size.
@@ -537,7 +539,7 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     x.resize(a.n);
     r.resize(a.n);
     auto rowChunks = [&](auto&& rows) {
-        pool.forChunks(a.n, kRows, [&](std::size_t, std::size_t first, std::size_t end) {
+        pool.forChunks(a.n, kShareRows, [&](std::size_t, std::size_t first, std::size_t end) {
             rows(std::uint32_t(first), std::uint32_t(end));
         });
     };
@@ -558,7 +560,7 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     // restrict (each coarse row gathers its finer rows' residuals in ascending order), correct on the
     // coarser level, prolong, and sweep backwards, so that the V-cycle stays symmetric
     next.b.resize(next.a.n);
-    pool.forEach(next.a.n, kRows, [&](std::size_t c) {
+    pool.forEach(next.a.n, kShareRows, [&](std::size_t c) {
         Vec sum;
         for (std::uint32_t k = next.members.start[c]; k < next.members.start[c + 1]; ++k) {
             sum += r[next.members.items[k]];
@@ -566,7 +568,7 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
         next.b[c] = sum;
     });
     cycle(level + 1, next.b, next.x, pool);
-    pool.forEach(a.n, kRows, [&](std::size_t i) { x[i] += next.x[next.group[i]]; });
+    pool.forEach(a.n, kShareRows, [&](std::size_t i) { x[i] += next.x[next.group[i]]; });
     if (coloured) {
         smoothColours(a, dinv, m_colours[level], false, b, x, pool);
     } else {
@@ -779,7 +781,7 @@ SolveStats solvePcg(const BlockMatrix<S>& a, const std::vector<Vec3T<S>>& b, std
         const double rzNext = filteredDot(r, z, fixed, pool);
         const S beta = S(rzNext / rz);
         rz = rzNext;
-        pool.forChunks(n, kDotRows, [&](std::size_t, std::size_t first, std::size_t end) {
+        pool.forChunks(n, kShareRows, [&](std::size_t, std::size_t first, std::size_t end) {
             for (std::size_t i = first; i < end; ++i) {
                 p[i] = z[i] + p[i] * beta;
             }

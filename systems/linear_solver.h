@@ -189,8 +189,9 @@ bool packSymmetric(BlockMatrix<S>& a, WorkerPool& pool = serialPool());
 /// block's rows cost nearly what the bytes save), a 100 x 100 cloth's 10,000 rows 6-7%.
 constexpr std::uint32_t kPackedRows = 1024;
 
-/// Rows per chunk of the solver's dot products (a system this small or smaller sums in plain index order),
-/// products and vector updates.
+/// Rows per chunk of the solver's dot products (a system this small or smaller sums in plain index order)
+/// and of the passes that compute a product or update vectors as they sum (the other loops share out in
+/// smaller chunks, which change no bit).
 constexpr std::size_t kDotRows = 512;
 /// A multigrid level of this many rows or more is smoothed by multicolour block Gauss-Seidel (blocks of
 /// kSmoothBlock rows, or an eighth of the level if fewer; a colour's blocks shared out over threads, rows
