@@ -409,6 +409,7 @@ void residualWith(const BlockMatrix<S>& a, const Vec3T<S>* x, Vec3T<S>* r, std::
 template <class S>
 void forwardRowPairFromZero(const BlockMatrix<S>& a, const Mat3T<S>* dinv, const Vec3T<S>* b, Vec3T<S>* x,
                             RowRange one, RowRange other, const SweepOrder* order) {
+    assert(one.first <= one.end && other.first <= other.end && one.end <= a.n && other.end <= a.n);
     if (order) {
         assert(order->split.size() == a.n && order->items.size() == a.col.size() - a.n);
         forwardWith(a, dinv, b, x, one, other, ListedBefore{a.rowStart.data(), *order});

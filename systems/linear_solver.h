@@ -31,8 +31,9 @@
 // 0.6-2.7 times the fine one. Nor did leaving the weak couplings out of the fine level's sweeps pay: a
 // cloth's bend springs are a third of its blocks and couple 100 times more weakly than its stretch springs
 // (|A_ij| / sqrt(|A_ii| |A_jj|) 0.003-0.005 against 0.3-0.5), yet the solver sweeping without them took
-// 16.2 iterations a step instead of 15.2 on the 100 x 100 and no less time (the sweeps do not go as the
-// blocks they read: a forward sweep from zero reads half the blocks of a product and takes about as long).
+// 16.2 iterations a step instead of 15.2 on the 100 x 100 and no less time (the sweeps did not go as the
+// blocks they read: a forward sweep from zero, row after row, read half the blocks of a product and took
+// about as long; it waits on each row, which kernels::forwardRowPairFromZero has since overlapped).
 //
 // How blocks are read: the kernels apply a stored block's rows as its columns (A v = row0 v.x + row1 v.y +
 // row2 v.z, three broadcasts), and so does the dense factor of the coarsest level. For the springs it makes

@@ -283,6 +283,12 @@ TEST(BlockKernels, TwoRangesSweptInTurnGiveTheBitsOfOneSweptAfterTheOther) {
         visit[k] = k;
     }
     const kernels::SweepOrder order = sweepOrder(a, visit);
+    // the reference: Gauss-Seidel from zero in double, row after row (the two ranges are independent)
+    std::vector<Vec3> want(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        gaussSeidelRow(a, dinv, b, want, i);
+    }
+    const Vec3T<float> unread{1e6f, 1e6f, 1e6f}; // x is not cleared: no row may be read before it is written
     for (Simd simd : {Simd::Sse2, Simd::Avx2}) {
         if (simd == Simd::Avx2 && !avx2Available()) {
             continue;
@@ -292,17 +298,20 @@ TEST(BlockKernels, TwoRangesSweptInTurnGiveTheBitsOfOneSweptAfterTheOther) {
         for (const kernels::SweepOrder* listed : {static_cast<const kernels::SweepOrder*>(nullptr), &order}) {
             const std::string what = std::string(simd == Simd::Avx2 ? "AVX2" : "SSE2") +
                                      (listed ? ", rows as listed" : ", rows in order");
-            std::vector<Vec3T<float>> alone(n);
+            std::vector<Vec3T<float>> alone(n, unread);
             kernels::forwardRowsFromZero(a, dinv.data(), b.data(), alone.data(), 0, first, listed);
             kernels::forwardRowsFromZero(a, dinv.data(), b.data(), alone.data(), first, n, listed);
+            for (std::uint32_t i = 0; i < n; ++i) {
+                expectClose(alone[i], want[i], 1.0, what + ", row " + std::to_string(i));
+            }
             // either range first, and one range with an empty one
             const kernels::RowRange one{0, first}, other{first, n}, none{n, n};
             for (auto [p, q] : {std::pair{one, other}, std::pair{other, one}}) {
-                std::vector<Vec3T<float>> x(n);
+                std::vector<Vec3T<float>> x(n, unread);
                 kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), p, q, listed);
                 EXPECT_EQ(std::memcmp(x.data(), alone.data(), n * sizeof(x[0])), 0) << what;
             }
-            std::vector<Vec3T<float>> x(n);
+            std::vector<Vec3T<float>> x(n, unread);
             kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), one, none, listed);
             kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), none, other, listed);
             EXPECT_EQ(std::memcmp(x.data(), alone.data(), n * sizeof(x[0])), 0) << what << ", one at a time";
