@@ -274,18 +274,6 @@ void addWindDamping(const SpringNetwork& net, const Environment& env, double h, 
     });
 }
 
-bool springAxis(const SpringLink& s, const Vec3& xa, const Vec3& xb, Vec3& u, double& len,
-                double& transverse) {
-    const Vec3 d = xb - xa;
-    len = length(d);
-    if (len <= 1e-12) {
-        return false;
-    }
-    u = d * (1.0 / len);
-    transverse = std::max(0.0, 1.0 - s.rest / len);
-    return true;
-}
-
 bool springStiffness(const SpringLink& s, const Vec3& xa, const Vec3& xb, Mat3& k, Vec3& u, double& len) {
     double transverse = 0.0;
     if (!springAxis(s, xa, xb, u, len, transverse)) {

@@ -18,6 +18,7 @@
 #include "systems/block_sparse.h"
 
 #include <cstddef>
+#include <emmintrin.h>
 #include <vector>
 
 namespace tumble {
@@ -71,9 +72,21 @@ void springForces(const SpringNetwork& net, const Environment& env, const std::v
 
 /// A spring's unit direction u from a to b, its length, and the fraction t = max(0, 1 - rest / len) of its
 /// stiffness that acts across it: K = k [(1 - t) u u^T + t I] (see the header comment). Returns false for
-/// coincident masses (no direction).
-bool springAxis(const SpringLink& s, const Vec3& xa, const Vec3& xb, Vec3& u, double& len,
-                double& transverse);
+/// coincident masses (no direction). Inline, and its max without a branch: whether a spring is stretched
+/// changes from spring to spring, and a branch on the division's result, mispredicted, held up the loops
+/// over links.
+inline bool springAxis(const SpringLink& s, const Vec3& xa, const Vec3& xb, Vec3& u, double& len,
+                       double& transverse) {
+    const Vec3 d = xb - xa;
+    len = length(d);
+    if (len <= 1e-12) {
+        return false;
+    }
+    u = d * (1.0 / len);
+    // maxsd(x, 0) is x > 0 ? x : +0: std::max(0.0, x) to the bit (-0 and NaN give +0)
+    transverse = _mm_cvtsd_f64(_mm_max_sd(_mm_set_sd(1.0 - s.rest / len), _mm_setzero_pd()));
+    return true;
+}
 
 /// The stiffness block K of a spring (see the header comment), its unit direction from a to b and its length.
 /// Returns false for coincident masses (no direction).

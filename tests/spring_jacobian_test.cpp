@@ -10,7 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 
 namespace tumble {
@@ -168,6 +170,38 @@ TEST(SpringJacobian, StiffFreeBodySolvesInFloat) {
     for (const Vec3& x : net.x) {
         ASSERT_TRUE(isFinite(x));
     }
+}
+
+// The share of a spring's stiffness that acts across it, max(0, 1 - rest / len), taken without a branch:
+// the same bits as std::max(0.0, .) for stretched springs, springs at their rest length and compressed
+// ones, and +0 where 1 - rest / len is NaN (a NaN rest length).
+TEST(SpringForces, TheTransverseShareIsStdMaxToTheBit) {
+    auto bits = [](double v) {
+        std::uint64_t b = 0;
+        std::memcpy(&b, &v, sizeof b);
+        return b;
+    };
+    const Vec3 a{0.25, -1.0, 2.0};
+    for (double rest : {0.0, 0.5, 1.0, 1.5, 3.0, 1e300, std::nan("")}) {
+        for (double len : {1e-6, 0.75, 1.0, 2.0, 1e6}) {
+            SpringLink s;
+            s.rest = rest;
+            Vec3 u;
+            double got = 0.0, gotLen = 0.0;
+            ASSERT_TRUE(springAxis(s, a, a + Vec3{0.0, 0.0, len}, u, gotLen, got));
+            const double want = std::max(0.0, 1.0 - s.rest / gotLen);
+            EXPECT_EQ(bits(got), bits(want)) << "rest " << rest << ", length " << len;
+        }
+    }
+    // at its rest length exactly: +0
+    SpringLink s;
+    s.rest = 2.0;
+    Vec3 u;
+    double len = 0.0, t = -1.0;
+    ASSERT_TRUE(springAxis(s, a, a + Vec3{2.0, 0.0, 0.0}, u, len, t));
+    EXPECT_EQ(bits(t), bits(0.0));
+    // coincident masses: no direction
+    EXPECT_FALSE(springAxis(s, a, a, u, len, t));
 }
 
 TEST(SpringForces, WindOnAClothPushesWithItsAreaAlongTheNormal) {
