@@ -174,7 +174,8 @@ TEST(SpringJacobian, StiffFreeBodySolvesInFloat) {
 
 // The share of a spring's stiffness that acts across it, max(0, 1 - rest / len), taken without a branch:
 // the same bits as std::max(0.0, .) for stretched springs, springs at their rest length and compressed
-// ones, and +0 where 1 - rest / len is NaN (a NaN rest length).
+// ones, and +0 where 1 - rest / len is NaN (a NaN rest length: the one input where maxsd's operands, the
+// other way round, would differ; 1 - rest / len is never -0 in round-to-nearest).
 TEST(SpringForces, TheTransverseShareIsStdMaxToTheBit) {
     auto bits = [](double v) {
         std::uint64_t b = 0;

@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Writes the replay fuzzer's seeds (tests/fuzz/seeds/replay/) with this build: run it whenever the replay
-# format's version goes up (tests/replay_test.cpp's ReplaySeeds test fails until it is), else the fuzzer
-# meets only the version check. Usage: make_replay_seeds.sh [TUMBLE_BINARY] (default build/tumble).
+# format's version goes up (Replay.TheFuzzersSeedsAreOfThisVersion, tests/replay_test.cpp, fails until it
+# is), else the fuzzer meets only the version check. Usage: make_replay_seeds.sh [TUMBLE_BINARY] (default:
+# the repository's build/tumble). The same binary writes the same bytes (the scenario's path in the header
+# is relative).
 # Each seed is the fuzz target's control byte (even: checksums recomputed; odd: read as it is) followed
 # by a replay of a rope and a ball with one recorded impulse, four frames: events.tumble (even),
 # events_checked.tumble (odd) and cut_short.tumble (even, the replay without its last 30 bytes).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
-tumble=${1:-$root/build/tumble}
+tumble=$(realpath "${1:-$root/build/tumble}")
 out=$root/tests/fuzz/seeds/replay
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -35,10 +37,13 @@ entity = "ball"
 action = "impulse"
 value = [0.0, 1.0, 0.0]
 TOML
-"$tumble" run "$work/replay_scene.toml" --no-render --quiet --record "$work/seed.tumble" --out "$work/out" > /dev/null
-"$tumble" replay "$work/seed.tumble" --verify --no-render --quiet --out "$work/verify" > /dev/null
-size=$(stat -c %s "$work/seed.tumble")
-{ printf '\x00'; cat "$work/seed.tumble"; } > "$out/events.tumble"
-{ printf '\x01'; cat "$work/seed.tumble"; } > "$out/events_checked.tumble"
-{ printf '\x00'; head -c $((size - 30)) "$work/seed.tumble"; } > "$out/cut_short.tumble"
+cd "$work"
+"$tumble" run replay_scene.toml --no-render --quiet --record seed.tumble --out out > /dev/null
+"$tumble" replay seed.tumble --verify --no-render --quiet --out verify > /dev/null
+size=$(stat -c %s seed.tumble)
+# the last 30 bytes: the end marker (20), the only chunk's checksum (8) and two bytes of its frames (four
+# frames of a chunk's eight), so the copy cut short holds no whole frame
+{ printf '\x00'; cat seed.tumble; } > "$out/events.tumble"
+{ printf '\x01'; cat seed.tumble; } > "$out/events_checked.tumble"
+{ printf '\x00'; head -c $((size - 30)) seed.tumble; } > "$out/cut_short.tumble"
 echo "wrote events.tumble, events_checked.tumble and cut_short.tumble in $out (a replay of $size bytes)"
