@@ -20,6 +20,7 @@
 //                   are constraint-filtered.
 
 #include "components/spring_network.h"
+#include "engine/thread_choice.h"
 #include "systems/block_sparse.h"
 #include "systems/fem.h"
 #include "systems/linear_solver.h"
@@ -78,6 +79,9 @@ struct SpringWorkspace {
     ImplicitSolver<double> precise; ///< implicit Euler, solver_precision = "double"
     FemSolver fem;                  ///< an fem body's (kind Fem)
     SolveStats lastSolve;
+    /// Whether this network's loops share out over the pool or stay on the thread that steps it
+    /// (engine/thread_choice.h): speed only, never bits.
+    ThreadChoice threads;
 };
 
 /// Advances a network by one step of its integrator (an fem body: systems/fem.h).

@@ -750,9 +750,15 @@ void integrateSprings(World& world, const StepContext& ctx) {
     // a SolverError freezes its network; any other error ends the run, after every network has stepped (as
     // a loop on one thread does), the one of the first network in entity order that threw
     std::vector<std::exception_ptr> errors(steps.size());
+    WorkerPool& pool = poolOr(ctx.pool);
     auto step = [&](std::size_t i) {
+        // each network shares its loops out or keeps them on its thread, whichever its clock finds faster
+        // (engine/thread_choice.h: the same bits either way)
+        const ThreadChoice::Run run(steps[i].work->threads, pool);
+        Environment own = env;
+        own.pool = &run.pool();
         try {
-            stepNetwork(*steps[i].net, *steps[i].work, env, ctx.dt);
+            stepNetwork(*steps[i].net, *steps[i].work, own, ctx.dt);
         } catch (const SolverError& e) {
             steps[i].threw = true;
             steps[i].problem = e.what();
@@ -760,7 +766,6 @@ void integrateSprings(World& world, const StepContext& ctx) {
             errors[i] = std::current_exception();
         }
     };
-    WorkerPool& pool = poolOr(ctx.pool);
     std::vector<double> work;
     for (const NetworkStep& s : steps) {
         work.push_back(networkWork(*s.net));

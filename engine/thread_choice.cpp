@@ -1,0 +1,63 @@
+#include "engine/thread_choice.h"
+
+#include <algorithm>
+
+namespace tumble {
+
+namespace {
+
+constexpr int kTrialRuns = 2 * ThreadChoice::kTrial;
+constexpr int kCycleEnd = ThreadChoice::kSkip + kTrialRuns + ThreadChoice::kPeriod;
+
+double median(std::array<double, ThreadChoice::kTrial> v) {
+    std::sort(v.begin(), v.end());
+    constexpr std::size_t mid = ThreadChoice::kTrial / 2;
+    return ThreadChoice::kTrial % 2 ? v[mid] : 0.5 * (v[mid - 1] + v[mid]);
+}
+
+} // namespace
+
+bool ThreadChoice::share(int threads) const {
+    if (threads <= 1 || m_run < kSkip) {
+        return true;
+    }
+    const int t = m_run - kSkip;
+    // the trial alternates, shared first
+    return t < kTrialRuns ? t % 2 == 0 : m_sharing;
+}
+
+void ThreadChoice::record(int threads, double seconds) {
+    if (threads <= 1) {
+        return;
+    }
+    const int t = m_run - kSkip;
+    if (t >= 0 && t < kTrialRuns) {
+        m_samples[std::size_t(t % 2)][std::size_t(t / 2)] = seconds;
+        if (t == kTrialRuns - 1) {
+            const double shared = median(m_samples[0]), alone = median(m_samples[1]);
+            m_sharing = !(alone < (1.0 - kMargin) * shared);
+            m_otherMedian = m_sharing ? alone : shared;
+        }
+    } else if (t >= kTrialRuns) {
+        // the chosen way checked against what the other did in the trial
+        const int k = t - kTrialRuns;
+        m_check[std::size_t(k % kTrial)] = seconds;
+        if (k % kTrial == kTrial - 1 && median(m_check) > m_otherMedian) {
+            m_run = kSkip;
+            return;
+        }
+    }
+    // after the period a new trial, with nothing skipped
+    m_run = m_run + 1 == kCycleEnd ? kSkip : m_run + 1;
+}
+
+ThreadChoice::Run::Run(ThreadChoice& choice, WorkerPool& pool)
+    : m_choice(choice), m_threads(pool.threads()), m_use(choice.share(m_threads) ? pool : serialPool()),
+      m_start(std::chrono::steady_clock::now()) {}
+
+ThreadChoice::Run::~Run() {
+    const std::chrono::duration<double> took = std::chrono::steady_clock::now() - m_start;
+    m_choice.record(m_threads, took.count());
+}
+
+} // namespace tumble
