@@ -87,9 +87,12 @@ struct WorkerPool::Job {
     /// each keeps to its own end from one loop to the next and finds its rows still in its own cache.
     std::atomic<std::uint64_t> unclaimed{0};
     std::atomic<std::size_t> finished{0}; ///< chunks done
-    std::atomic<int> visitors{0};         ///< workers inside runChunks of this job
-    std::uint64_t floatMode = 0;          ///< the caller's
-    RunningSystem running;                ///< the caller's
+    /// a claim takes the unclaimed chunks over this, at least one (claimChunks); the schedule's tasks, one
+    /// chunk a thread that joins in, go one at a time
+    std::uint64_t divisor = std::numeric_limits<std::uint64_t>::max();
+    std::atomic<int> visitors{0}; ///< workers inside runChunks of this job
+    std::uint64_t floatMode = 0;  ///< the caller's
+    RunningSystem running;        ///< the caller's
     std::mutex errorMutex;
     std::exception_ptr error;
     std::size_t errorChunk = std::numeric_limits<std::size_t>::max();
@@ -128,17 +131,24 @@ namespace {
 
 constexpr std::uint64_t kBack = std::uint64_t(1) << 32;
 
-/// Claims a chunk of a job's unclaimed span from its front or its back; false when none is left.
-bool claimChunk(std::atomic<std::uint64_t>& unclaimed, bool fromFront, std::size_t& chunk) {
+/// Claims chunks [first, end) of a job's unclaimed span, from its front or its back: a share of what is left
+/// (what is left over `divisor`, at least one), so that a loop of many chunks costs a few claims rather than
+/// one a chunk, each of which moves the span's cache line between the cores (guided self-scheduling: the
+/// shares shrink as the span does, and the last chunks go one at a time, which keeps the threads' ends
+/// even). False when none is left.
+bool claimChunks(std::atomic<std::uint64_t>& unclaimed, bool fromFront, std::uint64_t divisor,
+                 std::size_t& first, std::size_t& end) {
     std::uint64_t span = unclaimed.load(std::memory_order_relaxed);
     for (;;) {
         const std::uint64_t front = span & (kBack - 1), back = span >> 32;
         if (front >= back) {
             return false;
         }
-        const std::uint64_t claimed = fromFront ? span + 1 : span - kBack;
+        const std::uint64_t take = std::max<std::uint64_t>(1, (back - front) / divisor);
+        const std::uint64_t claimed = fromFront ? span + take : span - take * kBack;
         if (unclaimed.compare_exchange_weak(span, claimed, std::memory_order_relaxed)) {
-            chunk = std::size_t(fromFront ? front : back - 1);
+            first = std::size_t(fromFront ? front : back - take);
+            end = first + std::size_t(take);
             return true;
         }
     }
@@ -160,18 +170,20 @@ void WorkerPool::runChunks(Job& job, bool fromFront) {
     RunningSystem& running = runningSystem();
     const RunningSystem ownRunning = running;
     running = job.running;
-    std::size_t c = 0;
-    while (claimChunk(job.unclaimed, fromFront, c)) {
-        try {
-            job.call(job.fn, c, c * job.grain, std::min(job.n, (c + 1) * job.grain));
-        } catch (...) {
-            std::lock_guard lock(job.errorMutex);
-            if (c < job.errorChunk) {
-                job.errorChunk = c;
-                job.error = std::current_exception();
+    std::size_t first = 0, end = 0;
+    while (claimChunks(job.unclaimed, fromFront, job.divisor, first, end)) {
+        for (std::size_t c = first; c < end; ++c) {
+            try {
+                job.call(job.fn, c, c * job.grain, std::min(job.n, (c + 1) * job.grain));
+            } catch (...) {
+                std::lock_guard lock(job.errorMutex);
+                if (c < job.errorChunk) {
+                    job.errorChunk = c;
+                    job.error = std::current_exception();
+                }
             }
         }
-        job.finished.fetch_add(1, std::memory_order_acq_rel);
+        job.finished.fetch_add(end - first, std::memory_order_acq_rel);
     }
     running = ownRunning;
     if (ownMode != job.floatMode) {
@@ -210,6 +222,8 @@ void WorkerPool::run(std::size_t n, std::size_t grain, std::size_t chunks, void*
     job.chunks = chunks;
     job.fn = fn;
     job.call = call;
+    // two shares a thread: claims few enough, and the last ones small enough to even out the ends
+    job.divisor = 2 * std::uint64_t(threads());
     post(job);
     runChunks(job, true);
     waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });

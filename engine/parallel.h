@@ -5,10 +5,12 @@
 // (chunk c covers [c * grain, min(n, (c + 1) * grain))): the boundaries depend only on n and the grain,
 // never on how many threads there are. Threads claim chunks as they come free (the asking thread from the
 // first chunk up, helpers from the last down, so that on two threads each tends to get the same rows, still
-// in its cache, loop after loop), so which thread runs a chunk varies, but a chunk's work does not depend
-// on it. A loop of 2^32 chunks or more runs on the caller alone. A reduction keeps one partial per chunk and
-// adds the partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one
-// thread the chunks simply run in order on the caller, through the same code.
+// in its cache, loop after loop), a share of what is left at a time (what is left over twice the thread
+// count, at least one chunk: a loop of 80 chunks is a dozen claims, not 80, each moving the claims' cache
+// line between cores), so which thread runs a chunk varies, but a chunk's work does not depend on it. A loop
+// of 2^32 chunks or more runs on the caller alone. A reduction keeps one partial per chunk and adds the
+// partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one thread
+// the chunks simply run in order on the caller, through the same code.
 //
 // Why our own pool and not oneTBB: a conjugate-gradient step of the cloth makes hundreds of fork-joins of
 // a few microseconds each; what they cost is waking the workers, so idle workers spin for a short while

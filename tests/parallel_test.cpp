@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstring>
@@ -98,6 +99,29 @@ TEST(WorkerPool, TheLowestChunksErrorIsRethrownAfterEveryChunkRan) {
         }
         EXPECT_EQ(ran.load(), 20);
     }
+}
+
+// Threads claim a share of what is left of a loop (two shares a thread), not all of it: each thread, in the
+// first chunk it runs, waits for the other thread to run one. Were a claim the whole loop, the first thread
+// to claim would wait with every chunk in hand and the other would find none.
+TEST(WorkerPool, AThreadClaimsAShareOfTheChunksLeftNotAllOfThem) {
+    WorkerPool pool(2);
+    std::array<std::atomic<int>, 2> ran{};
+    std::array<std::atomic<bool>, 2> sawOther{};
+    pool.forChunks(64, 1, [&](std::size_t, std::size_t, std::size_t) {
+        const auto self = std::size_t(WorkerPool::threadIndex()), other = 1 - self;
+        if (ran[self].fetch_add(1) == 0) {
+            const auto start = std::chrono::steady_clock::now();
+            while (ran[other].load() == 0 &&
+                   std::chrono::steady_clock::now() - start < std::chrono::seconds(5)) {
+                std::this_thread::yield();
+            }
+            sawOther[self] = ran[other].load() > 0;
+        }
+    });
+    EXPECT_EQ(ran[0].load() + ran[1].load(), 64);
+    EXPECT_TRUE(sawOther[0].load()) << "the caller's claim left the helper nothing";
+    EXPECT_TRUE(sawOther[1].load()) << "the helper's claim left the caller nothing";
 }
 
 TEST(WorkerPool, NestedLoopsFinish) {

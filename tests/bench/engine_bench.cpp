@@ -143,5 +143,21 @@ void BM_PoolForkJoinEmpty(benchmark::State& state) {
 }
 BENCHMARK(BM_PoolForkJoinEmpty)->Arg(1)->Arg(2);
 
+// a loop cut as the implicit solver cuts a 100 x 100 cloth's vector updates (10,201 rows of 16 bytes, in
+// chunks of 128 rows: 80 chunks), a little work a row: what claiming many small chunks costs
+void BM_PoolForkJoinManyChunks(benchmark::State& state) {
+    WorkerPool pool(int(state.range(0)));
+    std::vector<float> x(4 * 10201, 1.0f);
+    for (auto _ : state) {
+        pool.forChunks(10201, 128, [&](std::size_t, std::size_t b, std::size_t e) {
+            for (std::size_t i = 4 * b; i < 4 * e; ++i) {
+                x[i] = x[i] * 1.0000001f + 1e-9f;
+            }
+        });
+        benchmark::ClobberMemory();
+    }
+}
+BENCHMARK(BM_PoolForkJoinManyChunks)->Arg(1)->Arg(2);
+
 } // namespace
 } // namespace tumble
