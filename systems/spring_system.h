@@ -29,11 +29,11 @@ double networkWork(const SpringNetwork& net);
 /// Which networks step alone, one after another, each with its loops shared over every thread, before the
 /// rest step side by side, each on one thread. Stepping alone or not, a network's loops share out only while
 /// its clock finds that faster than keeping them on the thread that steps it (SpringWorkspace::threads,
-/// engine/thread_choice.h: the clock decides where the work runs, never what it computes). Which thread runs what changes no bit (each network touches
-/// only itself), only the time: side by side, a network with more than an equal share of the work is left
-/// on one thread while the others idle. So the largest steps alone while its work is more than an equal
-/// share of the work left (shared by the threads, or by the networks left if they are fewer), then the next
-/// largest, and so on.
+/// engine/thread_choice.h: the clock decides where the work runs, never what it computes). Which thread runs
+/// what changes no bit (each network touches only itself), only the time: side by side, a network with more
+/// than an equal share of the work is left on one thread while the others idle. So the largest steps alone
+/// while its work is more than an equal share of the work left (shared by the threads, or by the networks
+/// left if they are fewer), then the next largest, and so on.
 struct NetworkShares {
     std::vector<std::size_t> alone;    ///< largest first (ties: entity order)
     std::vector<std::size_t> together; ///< in entity order
