@@ -6,9 +6,9 @@
 // never on how many threads there are. Threads claim chunks as they come free (the asking thread from the
 // first chunk up, helpers from the last down, so that on two threads each tends to get the same rows, still
 // in its cache, loop after loop), a share of what is left at a time (what is left over twice the thread
-// count, at least one chunk: a loop of 80 chunks is a dozen claims, not 80, each moving the claims' cache
-// line between cores), so which thread runs a chunk varies, but a chunk's work does not depend on it. A loop
-// of 2^32 chunks or more runs on the caller alone. A reduction keeps one partial per chunk and adds the
+// count, at least one chunk: a loop of 80 chunks is 16 claims at two threads, not 80, each moving the claims'
+// cache line between cores), so which thread runs a chunk varies, but a chunk's work does not depend on it. A
+// loop of 2^32 chunks or more runs on the caller alone. A reduction keeps one partial per chunk and adds the
 // partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one thread
 // the chunks simply run in order on the caller, through the same code.
 //

@@ -15,9 +15,19 @@ double median(std::array<double, ThreadChoice::kTrial> v) {
     return ThreadChoice::kTrial % 2 ? v[mid] : 0.5 * (v[mid - 1] + v[mid]);
 }
 
+/// The trial's rule: share unless one thread is faster by more than the margin.
+bool sharingWins(double shared, double alone) {
+    return !(alone < (1.0 - ThreadChoice::kMargin) * shared);
+}
+
 } // namespace
 
-bool ThreadChoice::share(int threads) const {
+bool ThreadChoice::share(int threads) {
+    if (threads != m_threads) {
+        // another pool: what was measured does not hold for it
+        m_threads = threads;
+        m_run = std::min(m_run, kSkip);
+    }
     if (threads <= 1 || m_run < kSkip) {
         return true;
     }
@@ -35,16 +45,20 @@ void ThreadChoice::record(int threads, double seconds) {
         m_samples[std::size_t(t % 2)][std::size_t(t / 2)] = seconds;
         if (t == kTrialRuns - 1) {
             const double shared = median(m_samples[0]), alone = median(m_samples[1]);
-            m_sharing = !(alone < (1.0 - kMargin) * shared);
+            m_sharing = sharingWins(shared, alone);
             m_otherMedian = m_sharing ? alone : shared;
         }
     } else if (t >= kTrialRuns) {
-        // the chosen way checked against what the other did in the trial
+        // the chosen way's last runs in place of its trial median: would the trial still choose it?
         const int k = t - kTrialRuns;
         m_check[std::size_t(k % kTrial)] = seconds;
-        if (k % kTrial == kTrial - 1 && median(m_check) > m_otherMedian) {
-            m_run = kSkip;
-            return;
+        if (k % kTrial == kTrial - 1) {
+            const double now = median(m_check);
+            if (m_sharing !=
+                (m_sharing ? sharingWins(now, m_otherMedian) : sharingWins(m_otherMedian, now))) {
+                m_run = kSkip;
+                return;
+            }
         }
     }
     // after the period a new trial, with nothing skipped

@@ -18,16 +18,19 @@
 // The policy: the first kSkip runs share and are not timed (the first run builds patterns and fills the
 // caches); then a trial of kTrial runs each way, alternating (so that a machine slowing down or speeding up
 // weighs on both alike); the way with the lower median wins, one thread only when it is faster by more than
-// kMargin; after kPeriod runs the trial is made again, so a machine whose second core comes free is noticed.
-// A trial costs at most kTrial runs of the slower way in every kPeriod + 2 kTrial. Meanwhile every kTrial
-// runs of the chosen way are a check: if their median is above the median the other way had in the trial
-// (a trial misled by noise, or the machine's other core taken since), the next run starts a trial at once.
+// kMargin; after kPeriod runs of the chosen way the trial is made again, so a machine whose second core
+// comes free is noticed: kTrial runs of the slower way in every kPeriod + 2 kTrial. Meanwhile every kTrial
+// runs of the chosen way are a check: if, with their median in place of the chosen way's trial median, the
+// trial would have gone the other way (a trial misled by noise, or the machine's other core taken since),
+// the next run starts a trial at once. A pool of another size (Simulation::setThreads) starts a trial too.
+//
+// Systems do not read the wall clock (STYLE.md) for what they compute; this reads it for where the work
+// runs only, as the schedule's choice of running a phase side by side does.
 
 #include "engine/parallel.h"
 
 #include <array>
 #include <chrono>
-#include <cstdint>
 
 namespace tumble {
 
@@ -36,11 +39,12 @@ class ThreadChoice {
 public:
     static constexpr int kSkip = 2;         ///< runs at the start that share and are not timed
     static constexpr int kTrial = 5;        ///< runs of each way in a trial
-    static constexpr int kPeriod = 300;     ///< runs between two trials (5 s of 60 Hz steps)
+    static constexpr int kPeriod = 300;     ///< runs of the chosen way between two trials (5 s at 60 Hz)
     static constexpr double kMargin = 0.03; ///< one thread wins only when its median is this much lower
 
-    /// Whether the next run should share out over a pool of `threads` threads (always, with one).
-    bool share(int threads) const;
+    /// Whether the next run should share out over a pool of `threads` threads (always, with one); a count
+    /// other than the last one's starts a trial.
+    bool share(int threads);
     /// How long the run that share() was last asked about took, in seconds; with a pool of one thread
     /// nothing is recorded.
     void record(int threads, double seconds);
@@ -68,8 +72,9 @@ private:
     /// Which run of the current cycle comes next: [0, kSkip) skipped (the first cycle only), then the trial's
     /// 2 kTrial runs, then kPeriod runs of the chosen way.
     int m_run = 0;
+    int m_threads = 0; ///< the pool's size at the last run
     bool m_sharing = true;
-    std::array<std::array<double, kTrial>, 2> m_samples{}; ///< [0]: shared, [1]: alone
+    std::array<std::array<double, kTrial>, 2> m_samples{}; ///< s; [0]: shared, [1]: alone
     double m_otherMedian = 0.0;                            ///< s, the way not chosen, in the last trial
     std::array<double, kTrial> m_check{};                  ///< s, the chosen way's last runs
 };

@@ -67,7 +67,7 @@ struct ImplicitSolver {
 
 /// Scratch of one network's integrator, kept between steps so that a step allocates nothing. Only the
 /// implicit solvers' `dv` (warm starts) and the solutions their PcgVectors remember carry over from one step
-/// to the next.
+/// to the next, and the choice of threads (which changes no bit).
 struct SpringWorkspace {
     std::vector<Vec3> f;              ///< forces
     std::vector<Vec3> xs, v2, v3, v4; ///< stage positions and velocities (midpoint, rk4)
@@ -81,7 +81,7 @@ struct SpringWorkspace {
     SolveStats lastSolve;
     /// Whether this network's loops share out over the pool or stay on the thread that steps it
     /// (engine/thread_choice.h): speed only, never bits.
-    ThreadChoice threads;
+    ThreadChoice threadChoice;
 };
 
 /// Advances a network by one step of its integrator (an fem body: systems/fem.h).

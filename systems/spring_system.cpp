@@ -736,9 +736,9 @@ void integrateSprings(World& world, const StepContext& ctx) {
                           ctx.profiler,
                           ctx.pool,
                           airs.empty() ? nullptr : &airs};
-    // the largest networks step alone on every thread, the rest side by side (shareOutNetworks; each touches
-    // only itself); what touches bodies runs before and after, in entity order: following reads bodies,
-    // pulling adds to their impulses
+    // the largest networks step alone, their loops on every thread while that pays, the rest side by side
+    // (shareOutNetworks; each touches only itself); what touches bodies runs before and after, in entity
+    // order: following reads bodies, pulling adds to their impulses
     std::vector<NetworkStep> steps;
     world.view<const Name, SpringNetwork, SpringWorkspace>().each(
         [&](Entity, const Name& name, SpringNetwork& net, SpringWorkspace& work) {
@@ -754,7 +754,7 @@ void integrateSprings(World& world, const StepContext& ctx) {
     auto step = [&](std::size_t i) {
         // each network shares its loops out or keeps them on its thread, whichever its clock finds faster
         // (engine/thread_choice.h: the same bits either way)
-        const ThreadChoice::Run run(steps[i].work->threads, pool);
+        const ThreadChoice::Run run(steps[i].work->threadChoice, pool);
         Environment own = env;
         own.pool = &run.pool();
         try {

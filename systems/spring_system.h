@@ -4,6 +4,7 @@
 // has blown up; it is frozen where it is, the run report names the entity, frame, integrator and a remedy,
 // and the rest of the scene runs on.
 // Reads: SceneDef (gravity), ForceField. Writes: SpringNetwork, SpringWorkspace, RunReport. Phase: fixed.
+// It reads the clock to choose where a network's loops run (engine/thread_choice.h), never what they compute.
 //
 // It also registers the network builders' scenario keys: `springs` (masses and links given), `rope`,
 // `cloth` and `softbody` (spring_builders.h), the dump and hash of a network, and the events impulse,
@@ -28,7 +29,7 @@ double networkWork(const SpringNetwork& net);
 
 /// Which networks step alone, one after another, each with its loops shared over every thread, before the
 /// rest step side by side, each on one thread. Stepping alone or not, a network's loops share out only while
-/// its clock finds that faster than keeping them on the thread that steps it (SpringWorkspace::threads,
+/// its clock finds that faster than keeping them on the thread that steps it (SpringWorkspace::threadChoice,
 /// engine/thread_choice.h: the clock decides where the work runs, never what it computes). Which thread runs
 /// what changes no bit (each network touches only itself), only the time: side by side, a network with more
 /// than an equal share of the work is left on one thread while the others idle. So the largest steps alone

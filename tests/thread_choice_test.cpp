@@ -135,6 +135,42 @@ TEST(ThreadChoice, TheChosenWayBeingSlowerThanItWasButFasterThanTheOtherStartsNo
     }
 }
 
+TEST(ThreadChoice, WaysWithinTheMarginStartNoTrialBeforeThePeriod) {
+    // one thread 2% faster: sharing wins the trial (the margin is 3%), and the checks, which ask whether the
+    // trial would still go the same way, keep it for the whole period
+    ThreadChoice choice;
+    const std::vector<bool> said = feed(
+        choice, kFirstTrialEnds + ThreadChoice::kPeriod, [](int) { return 1e-3; },
+        [](int) { return 0.98e-3; });
+    for (int i = kFirstTrialEnds; i < kFirstTrialEnds + ThreadChoice::kPeriod; ++i) {
+        ASSERT_TRUE(said[std::size_t(i)]) << "run " << i;
+    }
+}
+
+TEST(ThreadChoice, AnotherThreadCountStartsATrial) {
+    ThreadChoice choice;
+    feed(
+        choice, kFirstTrialEnds + 7, [](int) { return 2e-3; }, [](int) { return 1e-3; });
+    ASSERT_FALSE(choice.share(kTwo));
+    // three threads now: a trial, shared first, then one alone, as after the skipped runs
+    EXPECT_TRUE(choice.share(3));
+    choice.record(3, 1e-3);
+    EXPECT_FALSE(choice.share(3));
+}
+
+TEST(ThreadChoice, ARunRecordsItselfWhenItEnds) {
+    // runs through Run alone, no times fed by hand: the skipped runs and the trial's first share, its second
+    // runs alone, which it can only know if each Run recorded itself
+    WorkerPool pool(kTwo);
+    ThreadChoice choice;
+    for (int i = 0; i < ThreadChoice::kSkip + 1; ++i) {
+        const ThreadChoice::Run run(choice, pool);
+        EXPECT_EQ(&run.pool(), &pool) << "run " << i;
+    }
+    const ThreadChoice::Run run(choice, pool);
+    EXPECT_EQ(&run.pool(), &serialPool());
+}
+
 TEST(ThreadChoice, ARunUsesTheSerialPoolWhenOneThreadWasChosen) {
     WorkerPool pool(kTwo);
     ThreadChoice choice;
