@@ -211,9 +211,11 @@ std::vector<SlotStats> Profiler::slotStats() const {
         st.stageOf = s.stageOf;
         st.calls = s.calls;
         st.meanMs = s.calls ? static_cast<double>(s.sumNs) * 1e-6 / static_cast<double>(s.calls) : 0.0;
-        st.p50Ms = s.recent.percentile(0.50);
-        st.p99Ms = s.recent.percentile(0.99);
         st.maxMs = static_cast<double>(s.maxNs) * 1e-6;
+        // the ring keeps float milliseconds, the maximum whole nanoseconds: rounded to float, the largest
+        // sample can come out above the maximum (25,328,500 ns is 25.3285007 ms in float)
+        st.p50Ms = std::min(s.recent.percentile(0.50), st.maxMs);
+        st.p99Ms = std::min(s.recent.percentile(0.99), st.maxMs);
         out.push_back(std::move(st));
     }
     return out;
@@ -223,9 +225,10 @@ FrameStats Profiler::frameStats() const {
     std::lock_guard lock(m_mutex);
     FrameStats f;
     f.frames = m_frames;
-    f.physicsP50Ms = m_physics.percentile(0.50);
-    f.physicsP99Ms = m_physics.percentile(0.99);
     f.physicsMaxMs = static_cast<double>(m_physicsMaxNs) * 1e-6;
+    // no percentile above the maximum (the ring's float rounding; see slotStats)
+    f.physicsP50Ms = std::min(m_physics.percentile(0.50), f.physicsMaxMs);
+    f.physicsP99Ms = std::min(m_physics.percentile(0.99), f.physicsMaxMs);
     f.criticalP50Ms = m_critical.percentile(0.50);
     f.criticalP99Ms = m_critical.percentile(0.99);
     f.renderP50Ms = m_render.percentile(0.50);
