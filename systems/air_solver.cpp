@@ -366,15 +366,35 @@ void holdFixedFaces(Air& air) {
     }
 }
 
+/// The sum over a row of n cells of a_i b_i in double, in eight running sums (cell i in sum i mod 8, the
+/// cells past the last eight in a ninth) added in a fixed order at the end. One running sum waits on every
+/// addition before the next (four cycles each: a 64^3 grid's dot product took 0.25 ms); eight overlap.
+double rowDot(const float* a, const float* b, int n) {
+    __m128d s0 = _mm_setzero_pd(), s1 = s0, s2 = s0, s3 = s0;
+    int i = 0;
+    for (; i + 8 <= n; i += 8) {
+        const __m128 a0 = _mm_loadu_ps(a + i), b0 = _mm_loadu_ps(b + i);
+        const __m128 a1 = _mm_loadu_ps(a + i + 4), b1 = _mm_loadu_ps(b + i + 4);
+        s0 = _mm_add_pd(s0, _mm_mul_pd(_mm_cvtps_pd(a0), _mm_cvtps_pd(b0)));
+        s1 = _mm_add_pd(s1,
+                        _mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(a0, a0)), _mm_cvtps_pd(_mm_movehl_ps(b0, b0))));
+        s2 = _mm_add_pd(s2, _mm_mul_pd(_mm_cvtps_pd(a1), _mm_cvtps_pd(b1)));
+        s3 = _mm_add_pd(s3,
+                        _mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(a1, a1)), _mm_cvtps_pd(_mm_movehl_ps(b1, b1))));
+    }
+    double rest = 0.0;
+    for (; i < n; ++i) {
+        rest += double(a[i]) * double(b[i]);
+    }
+    const __m128d all = _mm_add_pd(_mm_add_pd(s0, s1), _mm_add_pd(s2, s3));
+    return (_mm_cvtsd_f64(all) + _mm_cvtsd_f64(_mm_unpackhi_pd(all, all))) + rest;
+}
+
 double dotCells(const Air& air, const std::vector<float>& a, const std::vector<float>& b, WorkerPool& pool) {
     const Padded g(air.cells);
     return sumRows(pool, g.ny, g.nz, 0.0, [&](int j, int k) {
-        double s = 0.0;
         const std::size_t row = g.at(0, j, k);
-        for (int i = 0; i < g.nx; ++i) {
-            s += double(a[row + std::size_t(i)]) * double(b[row + std::size_t(i)]);
-        }
-        return s;
+        return rowDot(a.data() + row, b.data() + row, g.nx);
     });
 }
 
