@@ -1,6 +1,8 @@
 // Malformed scenarios, each run through the real `tumble check` program: it must exit 2 and say what is
-// wrong, naming the file and, where the problem sits on a line, the line.
+// wrong, naming the file and, where the problem sits on a line, the line; and, last, the file reader itself.
 
+#include "engine/scenario.h"
+#include "engine/table_reader.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -590,6 +592,27 @@ TEST(MalformedScenario, EmptyFileNeedsAScene) {
     const ProcessResult r = runTumble({"check", writeTemp("empty.toml", "")});
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("needs a [scene] table"), std::string::npos) << r.err;
+}
+
+// readScenarioFile reads in blocks of 64 KiB up to one byte past the 16 MiB limit
+TEST(ScenarioFile, AFileOfSeveralBlocksIsReadByteForByte) {
+    std::string text(200'003, '\0');
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        text[i] = char((i * 131 + i / 7) & 0xff); // every byte value, no block like the one before it
+    }
+    EXPECT_EQ(readScenarioFile(writeTemp("blocks.toml", text)), text);
+}
+
+TEST(ScenarioFile, AFileAtTheLimitIsReadWholeAndOnePastItIsRefused) {
+    const std::string atLimit(Limits::kMaxFileBytes, '#');
+    EXPECT_EQ(readScenarioFile(writeTemp("at_limit.toml", atLimit)).size(), Limits::kMaxFileBytes);
+    const std::string path = writeTemp("past_limit.toml", atLimit + "#");
+    try {
+        readScenarioFile(path);
+        ADD_FAILURE() << "a file of 16 MiB and a byte was read";
+    } catch (const ScenarioError& e) {
+        EXPECT_NE(std::string(e.what()).find("larger than 16 MiB"), std::string::npos) << e.what();
+    }
 }
 
 } // namespace

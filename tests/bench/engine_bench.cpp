@@ -1,16 +1,18 @@
-// Engine benchmarks: what the profiler costs per timed scope and per frame, views, and the state hash.
+// Engine benchmarks: what the profiler costs per timed scope and per frame, views, the state hash, the pool's
+// fork-joins and reading a scenario file.
 //   build/tests/bench/tumble_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
 #include "engine/hash.h"
 #include "engine/parallel.h"
 #include "engine/profiler.h"
+#include "engine/scenario.h"
 #include "engine/schedule.h"
 #include "engine/world.h"
 
 #include <benchmark/benchmark.h>
 
 #include <array>
-
+#include <string>
 #include <vector>
 
 namespace tumble {
@@ -114,6 +116,15 @@ void BM_StateHash(benchmark::State& state) {
     state.SetBytesProcessed(state.iterations() * std::int64_t(data.size() * sizeof(double)));
 }
 BENCHMARK(BM_StateHash);
+
+// reading a demo's scenario file (a sweep of short runs reads one per run)
+void BM_ReadScenarioFile(benchmark::State& state) {
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(readScenarioFile(path));
+    }
+}
+BENCHMARK(BM_ReadScenarioFile)->Unit(benchmark::kMicrosecond);
 
 // one fork-join of the worker pool over four chunks of a little work (about what a CG product of a
 // 100 x 100 cloth hands out), against the same chunks on one thread: what sharing a loop costs
