@@ -861,15 +861,19 @@ void buoyancy(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
         f[std::size_t(a)] += 1;
         std::vector<float>& face = *faces[a];
         forRows(pool, f[1], f[2], [&](int j, int k) {
+            // a face on the box's side is left alone (the projection sets it): along x the row's ends,
+            // along y or z whole rows
+            if ((a == 1 && (j == 0 || j == n[1])) || (a == 2 && (k == 0 || k == n[2]))) {
+                return;
+            }
             float* row = face.data() + std::size_t(f[0]) * (std::size_t(j) + std::size_t(f[1]) * k);
-            for (int i = 0; i < f[0]; ++i) {
-                const int idx[3] = {i, j, k};
-                if (idx[a] == 0 || idx[a] == n[a]) {
-                    continue; // a face on the box's side: the projection sets it
-                }
-                const std::size_t hi = air.at(i, j, k), lo = hi - step; // the cells on either side
-                const float smoke = 0.5f * (air.smoke[lo] + air.smoke[hi]);
-                const float heat = 0.5f * (air.heat[lo] + air.heat[hi]) - mean;
+            const std::size_t c0 = air.at(0, j, k);
+            const float *smokeOf = air.smoke.data(), *heatOf = air.heat.data();
+            const int first = a == 0 ? 1 : 0, end = a == 0 ? n[0] : f[0];
+            for (int i = first; i < end; ++i) {
+                const std::size_t hi = c0 + std::size_t(i), lo = hi - step; // the cells on either side
+                const float smoke = 0.5f * (smokeOf[lo] + smokeOf[hi]);
+                const float heat = 0.5f * (heatOf[lo] + heatOf[hi]) - mean;
                 row[i] += push * (weight * smoke - lift * heat);
             }
         });
