@@ -52,7 +52,12 @@ std::string dataDirectory(const std::string& sub) {
 
 std::string assetDirectory() {
     if (const char* env = std::getenv("TUMBLE_ASSETS"); env && *env) {
-        return env;
+        // without a trailing separator: its parent is the project's root (meshes named "assets/...")
+        std::string dir = env;
+        while (dir.size() > 1 && dir.back() == '/') {
+            dir.pop_back();
+        }
+        return dir;
     }
     return dataDirectory("assets");
 }

@@ -11,6 +11,7 @@
 #include "systems/box2d_bridge.h"
 #include "systems/bullet_bridge.h"
 #include "systems/collision_system.h"
+#include "systems/obj_mesh.h"
 #include "tests/raw_engines.h"
 #include "tests/test_support.h"
 
@@ -19,6 +20,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <numbers>
 
 namespace tumble {
@@ -397,6 +399,25 @@ shape = "box"
 half_extents = [0.2, 0.2]
 mass = 1.0
 )";
+
+TEST(RigidBodies, AMeshNamedFromTheProjectRootIsFoundWhateverTheAssetsPathEndsWith) {
+    // "assets/meshes/..." is looked for beside the scenario, then under the assets folder's parent; a
+    // TUMBLE_ASSETS ending in a slash made that parent the assets folder itself (nothing found)
+    const std::string scenario = test::tempPath("mesh_lookup") + "/scene.toml";
+    const char* before = std::getenv("TUMBLE_ASSETS");
+    const std::string kept = before ? before : "";
+    for (const std::string end : {"", "/", "//"}) {
+        ::setenv("TUMBLE_ASSETS", (std::string(TUMBLE_SOURCE_DIR) + "/assets" + end).c_str(), 1);
+        EXPECT_EQ(findMeshFile("assets/meshes/rock_2.obj", scenario),
+                  std::string(TUMBLE_SOURCE_DIR) + "/assets/meshes/rock_2.obj")
+            << "TUMBLE_ASSETS ending in '" << end << "'";
+    }
+    if (before) {
+        ::setenv("TUMBLE_ASSETS", kept.c_str(), 1);
+    } else {
+        ::unsetenv("TUMBLE_ASSETS");
+    }
+}
 
 TEST(RigidBodies, TheSameSceneGivesTheSameBitsTwice) {
     std::vector<std::uint64_t> hashes[2];
