@@ -17,6 +17,7 @@
 #include <GLES3/gl3.h>
 #include <stb/stb_image_write.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -27,6 +28,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <tuple>
 
 namespace tumble {
 
@@ -211,7 +213,6 @@ Mat4 perspective(double fovDeg, double aspect, double nearPlane, double farPlane
     return m;
 }
 
-/// An orthographic projection of the box [-half, half]^2 x [near, far] in front of the eye.
 /// An orthographic projection of the box [x0, x1] x [y0, y1] x [-far, -near] of the view's frame.
 Mat4 orthographic(double x0, double x1, double y0, double y1, double nearPlane, double farPlane) {
     Mat4 m{};
@@ -280,19 +281,24 @@ struct Mesh {
     GLsizei vertices = 0;
 };
 
-Mesh upload(const std::vector<float>& positionNormal) {
-    Mesh m;
-    glGenVertexArrays(1, &m.vao);
-    glGenBuffers(1, &m.vbo);
-    glBindVertexArray(m.vao);
-    glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
-    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(positionNormal.size() * sizeof(float)), positionNormal.data(),
-                 GL_STATIC_DRAW);
+/// A vertex array over a new buffer of interleaved positions and normals (attributes 0 and 1), left bound.
+void makePositionNormalArray(GLuint& vao, GLuint& vbo) {
+    glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
     glEnableVertexAttribArray(0);
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
     glEnableVertexAttribArray(1);
     glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
                           reinterpret_cast<void*>(3 * sizeof(float)));
+}
+
+Mesh upload(const std::vector<float>& positionNormal) {
+    Mesh m;
+    makePositionNormalArray(m.vao, m.vbo);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(positionNormal.size() * sizeof(float)), positionNormal.data(),
+                 GL_STATIC_DRAW);
     m.vertices = GLsizei(positionNormal.size() / 6);
     return m;
 }
@@ -376,17 +382,25 @@ struct Renderer {
     std::unique_ptr<Framebuffer> target;
     GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
     GLuint depthProgram = 0; ///< mesh.vert with a fragment shader that writes nothing: the shadow map's pass
-    GLuint skyProgram = 0;   ///< the sky gradient, where nothing opaque was drawn
+    GLuint skyProgram = 0;   ///< the sky gradient, where nothing opaque was drawn: its texture, filtered
+    GLuint skyTexelsProgram = 0; ///< the sky's texture: the gradient at the centre of every 4 x 4 pixels
     /// look.glsl's uniforms in the mesh and sky programs
     struct LookUniforms {
         GLint zenith = -1, horizon = -1, nadir = -1;
     } meshLook, skyLook;
     struct {
-        GLint inverseViewProjection = -1, eye = -1;
+        GLint inverseViewProjection = -1, eye = -1, texelToNdc = -1; ///< the texels' program
+        GLint texture = -1, pixelToUv = -1;                          ///< the sky's program
     } sky;
+    /// The sky's texture (a texel for every 4 x 4 pixels of the target), its framebuffer, its size in
+    /// texels, and what it was last drawn for (the camera, the look and the target's size): drawn again
+    /// only when one of those changes.
+    GLuint skyTexture = 0, skyFbo = 0;
+    int skyWidth = 0, skyHeight = 0;
+    std::vector<float> skyDrawnFor;
     /// Uniform locations, looked up once when the programs are linked.
     struct MeshUniforms {
-        GLint viewProjection = -1, model = -1, colour = -1, grid = -1, lightDir = -1, eye = -1;
+        GLint viewProjection = -1, model = -1, colour = -1, lightDir = -1, eye = -1;
         GLint key = -1, skyLight = -1, groundLight = -1;
     } mesh;
     MeshUniforms depth; ///< the depth program's (only its matrices exist there: the others are -1)
@@ -400,21 +414,33 @@ struct Renderer {
     struct ShadowUniforms {
         GLint map = -1, lightViewProjection = -1;
     } shadow;
-    /// mesh.frag compiled for water: its program and uniforms, swapped with the mesh program's to draw
+    /// mesh.frag compiled for water or a ground plane: a program and its uniforms, swapped with the mesh
+    /// program's to draw
     struct LitProgram {
         GLuint id = 0;
         MeshUniforms mesh;
         ShadowUniforms shadow;
         LookUniforms look;
-    } water;
-    Mesh sphere, cube, cylinder, plane;
+        /// a ground program's colours (mesh.frag's GROUND): lit, in shadow, and the written colour's
+        /// quadratic in the grid's cover
+        struct {
+            GLint lit = -1, shade = -1, cover0 = -1, cover1 = -1, cover2 = -1;
+        } ground;
+    };
+    LitProgram water;
+    /// Ground planes (with their grid): `ground` where the shadow map reaches (with its lookups when the
+    /// scene has shadows), `groundOffMap` beyond it, where every lookup would read lit (no SHADOWS)
+    LitProgram ground, groundOffMap;
+    Mesh sphere, cube, cylinder;
     Mesh ball;                ///< a coarse sphere, drawn once per mass (instanced)
     GLuint ballInstances = 0; ///< per mass: offset and radius
     GLuint clothVao = 0, clothVbo = 0, flatVao = 0, flatVbo = 0;
+    GLuint groundVao = 0, groundVbo = 0;     ///< a ground plane's cells (position + normal), made per draw
     GLuint skyVao = 0;                       ///< no attributes: the sky's triangle comes from gl_VertexID
     GLuint particleVao = 0, particleVbo = 0; ///< per particle: centre, colour, size (instanced quads)
     std::vector<float> instances;            ///< scratch: ball instances
     std::vector<float> clothVertices;        ///< scratch: position + normal per corner
+    std::vector<float> groundVertices;       ///< scratch: a ground plane's cells, the shadow map's first
     std::vector<Vec3> normals;               ///< scratch: per-mass normals of a cloth
     std::vector<Vec3> positions;             ///< scratch: a network's masses between two steps
     std::vector<FlatVertex> flat;            ///< scratch: line vertices or particle instances
@@ -439,11 +465,13 @@ struct Renderer {
         smoke.release();
         glDeleteTextures(1, &shadowMap);
         glDeleteFramebuffers(1, &shadowFbo);
-        for (GLuint program :
-             {meshProgram, flatProgram, particleProgram, depthProgram, skyProgram, water.id}) {
+        glDeleteTextures(1, &skyTexture);
+        glDeleteFramebuffers(1, &skyFbo);
+        for (GLuint program : {meshProgram, flatProgram, particleProgram, depthProgram, skyProgram,
+                               skyTexelsProgram, water.id, ground.id, groundOffMap.id}) {
             glDeleteProgram(program);
         }
-        std::vector<Mesh> meshes{sphere, cube, cylinder, plane, ball};
+        std::vector<Mesh> meshes{sphere, cube, cylinder, ball};
         for (const auto& [shape, uploaded] : shapeMeshes) {
             meshes.push_back(uploaded);
         }
@@ -451,10 +479,10 @@ struct Renderer {
             glDeleteBuffers(1, &m.vbo);
             glDeleteVertexArrays(1, &m.vao);
         }
-        for (GLuint vao : {clothVao, flatVao, particleVao, skyVao}) {
+        for (GLuint vao : {clothVao, flatVao, particleVao, skyVao, groundVao}) {
             glDeleteVertexArrays(1, &vao);
         }
-        for (GLuint buffer : {ballInstances, clothVbo, flatVbo, particleVbo}) {
+        for (GLuint buffer : {ballInstances, clothVbo, flatVbo, particleVbo, groundVbo}) {
             glDeleteBuffers(1, &buffer);
         }
     }
@@ -471,10 +499,11 @@ Renderer::LookUniforms lookUniforms(GLuint program) {
 Renderer::LitProgram litProgram(GLuint program) {
     auto at = [&](const char* name) { return glGetUniformLocation(program, name); };
     return {program,
-            {at("uViewProjection"), at("uModel"), at("uColor"), at("uGrid"), at("uLightDir"), at("uEye"),
-             at("uKey"), at("uSkyLight"), at("uGroundLight")},
+            {at("uViewProjection"), at("uModel"), at("uColor"), at("uLightDir"), at("uEye"), at("uKey"),
+             at("uSkyLight"), at("uGroundLight")},
             {at("uShadowMap"), at("uLightViewProjection")},
-            lookUniforms(program)};
+            lookUniforms(program),
+            {at("uGroundLit"), at("uGroundShade"), at("uCover0"), at("uCover1"), at("uCover2")}};
 }
 
 /// Puts `other` in the mesh program's place (the draws use r.meshProgram's uniforms), and back again.
@@ -487,6 +516,19 @@ void swapLit(Renderer& r, Renderer::LitProgram& other) {
 
 double srgbToLinear(double c) {
     return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+/// look.glsl's encode on the CPU: with gamma, a colour lit in linear light as written (the sRGB curve,
+/// clamped to [0, 1]); without, as it is.
+Vec3 encodeColour(const Vec3& c, bool gamma) {
+    if (!gamma) {
+        return c;
+    }
+    auto curve = [](double v) {
+        v = std::clamp(v, 0.0, 1.0);
+        return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+    };
+    return {curve(c.x), curve(c.y), curve(c.z)};
 }
 
 /// The mesh program's colour (given in sRGB), in the space this frame lights in.
@@ -538,10 +580,19 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     r.meshProgram = compileProgram(vertex, withLook("mesh.frag", gamma + shadows), "mesh");
     r.water = litProgram(
         compileProgram(vertex, withLook("mesh.frag", gamma + shadows + "#define WATER\n"), "water"));
-    r.skyProgram = compileProgram(withLook("sky.vert", gamma), readText(shaders + "sky.frag"), "sky");
-    r.skyLook = lookUniforms(r.skyProgram);
-    r.sky = {glGetUniformLocation(r.skyProgram, "uInverseViewProjection"),
-             glGetUniformLocation(r.skyProgram, "uEye")};
+    r.ground = litProgram(
+        compileProgram(vertex, withLook("mesh.frag", gamma + shadows + "#define GROUND\n"), "ground"));
+    r.groundOffMap = litProgram(compileProgram(withDefines("mesh.vert", ""),
+                                               withLook("mesh.frag", gamma + "#define GROUND\n"),
+                                               "ground off the shadow map"));
+    r.skyProgram = compileProgram(readText(shaders + "sky.vert"), readText(shaders + "sky.frag"), "sky");
+    r.skyTexelsProgram =
+        compileProgram(readText(shaders + "sky.vert"), withLook("sky_texels.frag", gamma), "sky texels");
+    r.skyLook = lookUniforms(r.skyTexelsProgram);
+    r.sky = {glGetUniformLocation(r.skyTexelsProgram, "uInverseViewProjection"),
+             glGetUniformLocation(r.skyTexelsProgram, "uEye"),
+             glGetUniformLocation(r.skyTexelsProgram, "uTexelToNdc"),
+             glGetUniformLocation(r.skyProgram, "uSky"), glGetUniformLocation(r.skyProgram, "uPixelToUv")};
     glGenVertexArrays(1, &r.skyVao);
     r.flatProgram = compileProgram(readText(shaders + "flat.vert"), readText(shaders + "flat.frag"), "flat");
     r.depthProgram =
@@ -551,12 +602,6 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     r.sphere = upload(sphereMesh());
     r.cube = upload(cubeMesh());
     r.cylinder = upload(cylinderMesh());
-    std::vector<float> quad;
-    for (const Vec3& p :
-         {Vec3{-1, 0, -1}, Vec3{1, 0, 1}, Vec3{1, 0, -1}, Vec3{-1, 0, -1}, Vec3{-1, 0, 1}, Vec3{1, 0, 1}}) {
-        pushVertex(quad, p, {0, 1, 0});
-    }
-    r.plane = upload(quad);
     r.ball = upload(sphereMesh(12, 6));
     glBindVertexArray(r.ball.vao);
     glGenBuffers(1, &r.ballInstances);
@@ -583,15 +628,8 @@ Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     for (GLuint a : {0u, 1u, 2u}) {
         glVertexAttribDivisor(a, 1);
     }
-    glGenVertexArrays(1, &r.clothVao);
-    glGenBuffers(1, &r.clothVbo);
-    glBindVertexArray(r.clothVao);
-    glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
-    glEnableVertexAttribArray(0);
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
-    glEnableVertexAttribArray(1);
-    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
-                          reinterpret_cast<void*>(3 * sizeof(float)));
+    makePositionNormalArray(r.clothVao, r.clothVbo);
+    makePositionNormalArray(r.groundVao, r.groundVbo);
     glGenVertexArrays(1, &r.flatVao);
     glGenBuffers(1, &r.flatVbo);
     glBindVertexArray(r.flatVao);
@@ -686,15 +724,13 @@ void drawnPose(const World& world, Entity e, double alpha, Vec3& position, Quat&
 /// An edge is drawn 4 cm wide, to be seen (it collides as a 1 cm strip: components/rigid_body_2d.h).
 constexpr double kEdgeDrawnHalfWidth = 0.02;
 
-/// The rigid bodies, 3D and 2D, with the mesh program as it stands; `planes` false leaves the ground planes
-/// out (they cast no shadow).
-void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) {
+/// The rigid bodies, 3D and 2D, with the mesh program as it stands, but the ground planes (drawGround: they
+/// cast no shadow, and are drawn after everything else opaque).
+void drawColliders(World& world, Renderer& r, double alpha) {
     const GLint modelLoc = r.mesh.model;
-    const GLint gridLoc = r.mesh.grid;
-    auto draw = [&](const Mesh& m, const Mat4& transform, const std::array<float, 4>& colour, bool grid) {
+    auto draw = [&](const Mesh& m, const Mat4& transform, const std::array<float, 4>& colour) {
         glUniformMatrix4fv(modelLoc, 1, GL_FALSE, transform.data());
         setColour(r, colour);
-        glUniform1f(gridLoc, grid ? 1.0f : 0.0f);
         glBindVertexArray(m.vao);
         glDrawArrays(GL_TRIANGLES, 0, m.vertices);
     };
@@ -707,36 +743,27 @@ void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) 
                    az = rotate(b.orientation, {0, 0, 1});
         auto placed = [&](const Vec3& at, const Vec3& scale) { return model(at, scale, ax, ay, az); };
         switch (b.shape) {
-        case ShapeKind::Plane: {
-            if (!planes) {
-                break;
-            }
-            const Vec3 n = b.normal;
-            Vec3 t = std::abs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 0, 1});
-            t = t * (1.0 / length(t));
-            const Vec3 s = cross(t, n);
-            draw(r.plane, model(b.position, {200, 1, 200}, s, n, t), stone, true);
+        case ShapeKind::Plane:
             break;
-        }
         case ShapeKind::Sphere:
-            draw(r.sphere, placed(b.position, {b.radius, b.radius, b.radius}), stone, false);
+            draw(r.sphere, placed(b.position, {b.radius, b.radius, b.radius}), stone);
             break;
         case ShapeKind::Box:
-            draw(r.cube, placed(b.position, b.halfExtents), stone, false);
+            draw(r.cube, placed(b.position, b.halfExtents), stone);
             break;
         case ShapeKind::Cylinder:
-            draw(r.cylinder, placed(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
+            draw(r.cylinder, placed(b.position, {b.radius, 0.5 * b.height, b.radius}), stone);
             break;
         case ShapeKind::Capsule:
-            draw(r.cylinder, placed(b.position, {b.radius, 0.5 * b.height, b.radius}), stone, false);
+            draw(r.cylinder, placed(b.position, {b.radius, 0.5 * b.height, b.radius}), stone);
             for (double s : {-0.5, 0.5}) {
-                draw(r.sphere, placed(b.toWorld({0, s * b.height, 0}), {b.radius, b.radius, b.radius}), stone,
-                     false);
+                draw(r.sphere, placed(b.toWorld({0, s * b.height, 0}), {b.radius, b.radius, b.radius}),
+                     stone);
             }
             break;
         case ShapeKind::Convex:
         case ShapeKind::Mesh:
-            draw(shapeMesh(r, *b.mesh), placed(b.position, {1, 1, 1}), stone, false);
+            draw(shapeMesh(r, *b.mesh), placed(b.position, {1, 1, 1}), stone);
             break;
         }
     });
@@ -749,17 +776,15 @@ void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) 
         const Vec3 ax = rotate(q, {1, 0, 0}), ay = rotate(q, {0, 1, 0});
         switch (b.shape) {
         case Shape2DKind::Box:
-            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour,
-                 false);
+            draw(r.cube, model(at, {b.halfExtents[0], b.halfExtents[1], kSlabHalfDepth}, ax, ay), colour);
             break;
         case Shape2DKind::Circle:
             // the unit cylinder stands along y: lay it along z
-            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour,
-                 false);
+            draw(r.cylinder, model(at, {b.radius, kSlabHalfDepth, b.radius}, ax, {0, 0, 1}, -ay), colour);
             break;
         case Shape2DKind::Polygon: {
             const Mesh prism = upload(prismMesh(b.vertices));
-            draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour, false);
+            draw(prism, model(at, {1, 1, kSlabHalfDepth}, ax, ay), colour);
             glDeleteBuffers(1, &prism.vbo);
             glDeleteVertexArrays(1, &prism.vao);
             break;
@@ -770,7 +795,7 @@ void drawColliders(World& world, Renderer& r, double alpha, bool planes = true) 
             const double len = length(along);
             const Vec3 ex = along * (1.0 / len), ey = cross({0, 0, 1}, ex);
             draw(r.cube, model((from + to) * 0.5, {0.5 * len, kEdgeDrawnHalfWidth, kSlabHalfDepth}, ex, ey),
-                 colour, false);
+                 colour);
             break;
         }
         }
@@ -782,7 +807,6 @@ void drawSurfaceVertices(Renderer& r, const std::array<float, 4>& colour) {
     const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
     glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
     setColour(r, colour);
-    glUniform1f(r.mesh.grid, 0.0f);
     glBindVertexArray(r.clothVao);
     glBindBuffer(GL_ARRAY_BUFFER, r.clothVbo);
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.clothVertices.size() * sizeof(float)), r.clothVertices.data(),
@@ -1042,7 +1066,7 @@ Mat4 drawShadowMap(World& world, Renderer& r, const StepContext& ctx, const Vec3
     std::swap(r.mesh, r.depth);
     glVertexAttrib4f(2, 0.0f, 0.0f, 0.0f, 1.0f);
     glUniformMatrix4fv(r.mesh.viewProjection, 1, GL_FALSE, lightViewProjection.data());
-    drawColliders(world, r, ctx.alpha, false);
+    drawColliders(world, r, ctx.alpha);
     std::size_t drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         const std::vector<Vec3>& x = drawnPositions(world, e, net, ctx.alpha, r.positions, pool);
@@ -1131,21 +1155,301 @@ void setMeshFrame(Renderer& r, const Look& look, const Mat4& viewProjection, con
                        (lightViewProjection ? *lightViewProjection : Mat4{}).data());
 }
 
-constexpr GLsizei kSkyCells = 16 * 64; ///< sky.vert's grid
+constexpr double kGroundHalfSize = 200.0; ///< a ground plane is drawn as a square this far each way
 
-/// The sky gradient over every pixel the opaque scene left empty (at the far plane, behind everything).
-void drawSky(Renderer& r, const Look& look, const Mat4& viewProjection, const Vec3& eye) {
-    glUseProgram(r.skyProgram);
-    setLook(r.skyLook, look);
+/// A ground plane's model matrix: the unit square y = 0, |x| and |z| at most 1, onto the plane (y along its
+/// normal).
+Mat4 groundModel(const RigidBody& b) {
+    const Vec3 n = b.normal;
+    Vec3 t = std::abs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 0, 1});
+    t = t * (1.0 / length(t));
+    const Vec3 s = cross(t, n);
+    return model(b.position, {kGroundHalfSize, 1, kGroundHalfSize}, s, n, t);
+}
+
+/// Where the shadow map reaches on a ground plane's unit square, {x0, x1, z0, z1}: the box round the
+/// parallelogram that the map's square, carried along the light, cuts from the plane (a little wider, against
+/// rounding), clipped to the square (x0 = x1 or z0 = z1 if it misses it); the whole square when the light
+/// runs along the plane, or the matrix is zero (nothing casts) or not finite. `lightModel`: the light's
+/// view-projection times the plane's model matrix. Beyond the map a lookup reads lit (drawShadowMap keeps
+/// the map's edge clear), so the ground there needs none.
+std::array<float, 4> reachedByMap(const Mat4& lightModel) {
+    // the map's coordinates at (x, 0, z): X = a x + b z + e, Y = c x + d z + f (orthographic: w = 1)
+    const double a = lightModel[0], b = lightModel[8], e = lightModel[12];
+    const double c = lightModel[1], d = lightModel[9], f = lightModel[13];
+    const double det = a * d - b * c;
+    if (!(std::abs(det) > 1e-9 * (std::abs(a * d) + std::abs(b * c))) || !std::isfinite(e) ||
+        !std::isfinite(f)) {
+        return {-1.0f, 1.0f, -1.0f, 1.0f};
+    }
+    double x0 = 1e300, x1 = -1e300, z0 = 1e300, z1 = -1e300;
+    for (const double X : {-1.0, 1.0}) {
+        for (const double Y : {-1.0, 1.0}) {
+            const double x = ((X - e) * d - (Y - f) * b) / det, z = (a * (Y - f) - c * (X - e)) / det;
+            x0 = std::min(x0, x);
+            x1 = std::max(x1, x);
+            z0 = std::min(z0, z);
+            z1 = std::max(z1, z);
+        }
+    }
+    const double pad = 1e-3 * std::max(x1 - x0, z1 - z0) + 1e-6;
+    auto clip = [](double v) { return float(std::clamp(v, -1.0, 1.0)); };
+    return {clip(x0 - pad), clip(x1 + pad), clip(z0 - pad), clip(z1 + pad)};
+}
+
+/// A ground plane's unit square cut at `reach`'s lines into 3 x 3 cells, as triangles (position and normal
+/// per corner) in `out`: the middle cell (where the map reaches) first, then the others; returns the middle
+/// cell's corners (0 or 6). Cells of no area are left out; neighbours share their corners exactly, so the
+/// plane has no cracks.
+GLsizei groundCells(const std::array<float, 4>& reach, std::vector<float>& out) {
+    const float xs[4] = {-1.0f, reach[0], reach[1], 1.0f}, zs[4] = {-1.0f, reach[2], reach[3], 1.0f};
+    out.clear();
+    auto cell = [&](int i, int k) {
+        if (!(xs[i + 1] > xs[i]) || !(zs[k + 1] > zs[k])) {
+            return;
+        }
+        for (const auto& [x, z] :
+             {std::pair{xs[i], zs[k]}, std::pair{xs[i + 1], zs[k + 1]}, std::pair{xs[i + 1], zs[k]},
+              std::pair{xs[i], zs[k]}, std::pair{xs[i], zs[k + 1]}, std::pair{xs[i + 1], zs[k + 1]}}) {
+            out.insert(out.end(), {x, 0.0f, z, 0.0f, 1.0f, 0.0f});
+        }
+    };
+    cell(1, 1);
+    const GLsizei onMap = GLsizei(out.size() / 6);
+    for (int k = 0; k < 3; ++k) {
+        for (int i = 0; i < 3; ++i) {
+            if (i != 1 || k != 1) {
+                cell(i, k);
+            }
+        }
+    }
+    return onMap;
+}
+
+/// What a ground plane's program takes for its colour (mesh.frag's GROUND): lit by the key light and in
+/// shadow (lit in linear light with gamma), and the written colour beyond the shadow map as a quadratic in
+/// the grid's cover g, c0 + g (c1 + g c2), through the written colours at g = 0, 1/2 and 1 (the sRGB curve is
+/// smooth over the 30% the grid darkens by: the quadratic is within a tenth of a level of it).
+struct GroundColours {
+    Vec3 lit, shade;
+    std::array<Vec3, 3> cover;
+};
+
+GroundColours groundColours(const RigidBody& b, const Look& look, const Vec3& eye, const Vec3& light) {
+    // the side facing the eye is lit, as mesh.frag's two-sided surfaces
+    Vec3 n = b.normal * (1.0 / length(b.normal));
+    if (dot(n, eye - b.position) < 0.0) {
+        n = n * -1.0;
+    }
+    const double diffuse = std::max(dot(n, light * -1.0), 0.0);
+    const double up = 0.5 + 0.5 * n.y;
+    const Vec3 ambient = look.groundLight + (look.skyLight - look.groundLight) * up;
+    const Vec3 c{b.color.x, b.color.y, b.color.z};
+    const Vec3 base = look.gamma ? Vec3{srgbToLinear(c.x), srgbToLinear(c.y), srgbToLinear(c.z)} : c;
+    auto times = [](const Vec3& a, const Vec3& v) { return Vec3{a.x * v.x, a.y * v.y, a.z * v.z}; };
+    GroundColours out;
+    out.shade = times(base, ambient);
+    out.lit = times(base, ambient + Vec3{1, 1, 1} * (double(look.key) * diffuse));
+    const Vec3 e0 = encodeColour(out.lit, look.gamma), eHalf = encodeColour(out.lit * 0.85, look.gamma),
+               e1 = encodeColour(out.lit * 0.7, look.gamma);
+    out.cover = {e0, eHalf * 4.0 - e0 * 3.0 - e1, e0 * 2.0 - eHalf * 4.0 + e1 * 2.0};
+    return out;
+}
+
+/// Ground planes with their grid, after everything else opaque (at one sample llvmpipe then skips shading
+/// what they hide). Only the part the shadow map reaches is drawn with its lookups (reachedByMap); the rest
+/// with a program without them, which gives the same pixels: a CPU rasteriser runs a shader's every branch
+/// on every pixel, and the far ground is most of a frame.
+void drawGround(World& world, Renderer& r, const Look& look, const Mat4& viewProjection, const Vec3& eye,
+                const Vec3& light, const std::optional<Mat4>& lightViewProjection) {
+    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+        if (b.shape != ShapeKind::Plane) {
+            return;
+        }
+        const Mat4 m = groundModel(b);
+        const GroundColours colours = groundColours(b, look, eye, light);
+        const GLsizei onMap =
+            groundCells(lightViewProjection ? reachedByMap(multiply(*lightViewProjection, m))
+                                            : std::array{-1.0f, 1.0f, -1.0f, 1.0f},
+                        r.groundVertices);
+        const GLsizei all = GLsizei(r.groundVertices.size() / 6);
+        glBindVertexArray(r.groundVao);
+        glBindBuffer(GL_ARRAY_BUFFER, r.groundVbo);
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(r.groundVertices.size() * sizeof(float)),
+                     r.groundVertices.data(), GL_STREAM_DRAW);
+        for (const auto& [program, first, count] :
+             {std::tuple{&r.ground, GLsizei(0), onMap}, std::tuple{&r.groundOffMap, onMap, all - onMap}}) {
+            if (count == 0) {
+                continue;
+            }
+            swapLit(r, *program);
+            setMeshFrame(r, look, viewProjection, eye, light, lightViewProjection);
+            glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, m.data());
+            setColour(r, {float(b.color.x), float(b.color.y), float(b.color.z), 1.0f});
+            const auto& u = program->ground;
+            for (const auto& [at, v] :
+                 {std::pair{u.lit, colours.lit}, std::pair{u.shade, colours.shade},
+                  std::pair{u.cover0, colours.cover[0]}, std::pair{u.cover1, colours.cover[1]},
+                  std::pair{u.cover2, colours.cover[2]}}) {
+                glUniform3f(at, float(v.x), float(v.y), float(v.z));
+            }
+            glDrawArrays(GL_TRIANGLES, first, count);
+            swapLit(r, *program);
+        }
+    });
+}
+
+constexpr int kSkyTexelPixels = 4;   ///< a texel of the sky's texture spans 4 x 4 pixels
+constexpr GLint kSkyTextureUnit = 4; ///< (the smoke pass has units 0 to 2, the shadow map 3)
+
+/// The sky's texture for this frame's camera and look, drawn again only if they or the target's size
+/// changed since it was last drawn; leaves the target unbound. Its texels hold the gradient at the centres
+/// of the target's cells of 4 x 4 pixels (the last row and column of cells may stand past its edge).
+void updateSky(Renderer& r, const Look& look, const Mat4& viewProjection, const Vec3& eye) {
+    const int width = r.target->width(), height = r.target->height();
     const Eigen::Matrix4f inverse = Eigen::Map<const Eigen::Matrix4f>(viewProjection.data()).inverse();
+    std::vector<float> key(inverse.data(), inverse.data() + 16);
+    for (const Vec3& v : {eye, look.zenith, look.horizon, look.nadir}) {
+        key.insert(key.end(), {float(v.x), float(v.y), float(v.z)});
+    }
+    key.insert(key.end(), {float(width), float(height)});
+    if (key == r.skyDrawnFor) {
+        return;
+    }
+    const int texelsX = (width + kSkyTexelPixels - 1) / kSkyTexelPixels;
+    const int texelsY = (height + kSkyTexelPixels - 1) / kSkyTexelPixels;
+    if (texelsX != r.skyWidth || texelsY != r.skyHeight) {
+        glDeleteTextures(1, &r.skyTexture);
+        glDeleteFramebuffers(1, &r.skyFbo);
+        glGenTextures(1, &r.skyTexture);
+        glBindTexture(GL_TEXTURE_2D, r.skyTexture);
+        glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA8, texelsX, texelsY);
+        for (const GLenum filter : {GL_TEXTURE_MIN_FILTER, GL_TEXTURE_MAG_FILTER}) {
+            glTexParameteri(GL_TEXTURE_2D, filter, GL_LINEAR);
+        }
+        for (const GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T}) {
+            glTexParameteri(GL_TEXTURE_2D, wrap, GL_CLAMP_TO_EDGE);
+        }
+        glGenFramebuffers(1, &r.skyFbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, r.skyFbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, r.skyTexture, 0);
+        checkComplete(texelsX, texelsY, 1);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        r.skyWidth = texelsX;
+        r.skyHeight = texelsY;
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, r.skyFbo);
+    glViewport(0, 0, texelsX, texelsY);
+    glDisable(GL_DEPTH_TEST);
+    glUseProgram(r.skyTexelsProgram);
+    setLook(r.skyLook, look);
     glUniformMatrix4fv(r.sky.inverseViewProjection, 1, GL_FALSE, inverse.data());
     glUniform3f(r.sky.eye, float(eye.x), float(eye.y), float(eye.z));
+    // texel i's centre (gl_FragCoord i + 0.5) stands for the pixel 4 i + 2
+    glUniform2f(r.sky.texelToNdc, 2.0f * kSkyTexelPixels / float(width),
+                2.0f * kSkyTexelPixels / float(height));
+    glBindVertexArray(r.skyVao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    r.skyDrawnFor = std::move(key);
+}
+
+/// A convex polygon in clip space (x, y, z, w) cut by the half-space a . p >= 0 (Sutherland and Hodgman).
+std::vector<std::array<double, 4>> clipPolygon(const std::vector<std::array<double, 4>>& polygon,
+                                               const std::array<double, 4>& a) {
+    std::vector<std::array<double, 4>> out;
+    auto side = [&](const std::array<double, 4>& p) {
+        return a[0] * p[0] + a[1] * p[1] + a[2] * p[2] + a[3] * p[3];
+    };
+    for (std::size_t i = 0; i < polygon.size(); ++i) {
+        const auto& p = polygon[i];
+        const auto& q = polygon[(i + 1) % polygon.size()];
+        const double sp = side(p), sq = side(q);
+        if (sp >= 0.0) {
+            out.push_back(p);
+        }
+        if ((sp >= 0.0) != (sq >= 0.0)) {
+            const double t = sp / (sp - sq);
+            out.push_back({p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t, p[2] + (q[2] - p[2]) * t,
+                           p[3] + (q[3] - p[3]) * t});
+        }
+    }
+    return out;
+}
+
+/// The rows of the target (GL's, from the bottom) where the sky may show, [first, end): all of them but
+/// a band along the bottom or the top that a ground plane covers from edge to edge (one row spare; a
+/// ground plane is opaque and drawn whole). With multisampling llvmpipe shades every pixel a draw
+/// covers, hidden or not, so the sky drawn over the whole target cost as much again as it does where it
+/// shows.
+std::pair<int, int> skyRows(World& world, const Mat4& viewProjection, int width, int height) {
+    int first = 0, end = height;
+    world.view<const RigidBody>().each([&](Entity, const RigidBody& b) {
+        if (b.shape != ShapeKind::Plane) {
+            return;
+        }
+        const Mat4 m = multiply(viewProjection, groundModel(b));
+        std::vector<std::array<double, 4>> polygon;
+        for (const auto& [x, z] :
+             {std::pair{-1.0, -1.0}, std::pair{1.0, -1.0}, std::pair{1.0, 1.0}, std::pair{-1.0, 1.0}}) {
+            polygon.push_back({m[0] * x + m[8] * z + m[12], m[1] * x + m[9] * z + m[13],
+                               m[2] * x + m[10] * z + m[14], m[3] * x + m[11] * z + m[15]});
+        }
+        // what the rasteriser draws of it: between the near (z >= -w) and far (z <= w) planes
+        polygon = clipPolygon(clipPolygon(polygon, {0, 0, 1, 1}), {0, 0, -1, 1});
+        // where the target's left and right edges run through it: the rows between are covered
+        double lo = -1e300, hi = 1e300;
+        for (const double edge : {0.0, double(width)}) {
+            double a = 1e300, c = -1e300;
+            for (std::size_t i = 0; i < polygon.size(); ++i) {
+                const auto& p = polygon[i];
+                const auto& q = polygon[(i + 1) % polygon.size()];
+                const double px = (p[0] / p[3] + 1.0) * 0.5 * width, py = (p[1] / p[3] + 1.0) * 0.5 * height;
+                const double qx = (q[0] / q[3] + 1.0) * 0.5 * width, qy = (q[1] / q[3] + 1.0) * 0.5 * height;
+                if (std::min(px, qx) <= edge && edge <= std::max(px, qx)) {
+                    const double y = px == qx ? py : py + (qy - py) * (edge - px) / (qx - px);
+                    a = std::min({a, y, px == qx ? qy : y});
+                    c = std::max({c, y, px == qx ? qy : y});
+                }
+            }
+            lo = std::max(lo, a);
+            hi = std::min(hi, c);
+        }
+        if (!(lo < hi) || !std::isfinite(lo) || !std::isfinite(hi)) {
+            return;
+        }
+        if (lo <= 0.0) {
+            first = std::max(first, int(std::clamp(std::floor(hi) - 1.0, 0.0, double(height))));
+        }
+        if (hi >= height) {
+            end = std::min(end, int(std::clamp(std::ceil(lo) + 1.0, 0.0, double(height))));
+        }
+    });
+    return {first, std::max(first, end)};
+}
+
+/// The sky gradient over every pixel the opaque scene left empty (at the far plane, behind everything): its
+/// texture (updateSky), filtered, in the rows where it may show.
+void drawSky(World& world, Renderer& r, const Mat4& viewProjection) {
+    const auto [first, end] = skyRows(world, viewProjection, r.target->width(), r.target->height());
+    if (first == end) {
+        return;
+    }
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(0, first, r.target->width(), end - first);
+    glUseProgram(r.skyProgram);
+    glActiveTexture(GL_TEXTURE0 + kSkyTextureUnit);
+    glBindTexture(GL_TEXTURE_2D, r.skyTexture);
+    glActiveTexture(GL_TEXTURE0);
+    glUniform1i(r.sky.texture, kSkyTextureUnit);
+    glUniform2f(r.sky.pixelToUv, 1.0f / float(kSkyTexelPixels * r.skyWidth),
+                1.0f / float(kSkyTexelPixels * r.skyHeight));
     glDepthFunc(GL_LEQUAL);
     glDepthMask(GL_FALSE);
     glBindVertexArray(r.skyVao);
-    glDrawArrays(GL_TRIANGLES, 0, 6 * kSkyCells);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
     glDepthMask(GL_TRUE);
     glDepthFunc(GL_LESS);
+    glDisable(GL_SCISSOR_TEST);
 }
 
 /// Water, see-through: after everything opaque and the sky, blended over them (mesh.frag's water()).
@@ -1194,16 +1498,20 @@ void renderWorld(World& world, const StepContext& ctx) {
             ? std::optional<Mat4>(drawShadowMap(world, r, ctx, light, output->wireframe, pool))
             : std::nullopt;
 
+    const Mat4 viewProjection = tumble::viewProjection(scene, output);
+    const Look look = sceneLook(scene);
+    if (scene.renderSkyGradient) {
+        updateSky(r, look, viewProjection, eye);
+    }
+
     r.target->bind();
     glClearColor(float(scene.background[0]), float(scene.background[1]), float(scene.background[2]), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
-    const Mat4 viewProjection = tumble::viewProjection(scene, output);
 
     // lit meshes: colliders and cloth; attribute 2 (the per-instance offset and scale) is (0, 0, 0, 1) for
     // every draw that is not instanced
-    const Look look = sceneLook(scene);
     setMeshFrame(r, look, viewProjection, eye, light, lightViewProjection);
     drawColliders(world, r, ctx.alpha);
     std::size_t drawn = 0;
@@ -1248,7 +1556,6 @@ void renderWorld(World& world, const StepContext& ctx) {
     glUseProgram(r.meshProgram);
     const Mat4 identity = model({0, 0, 0}, {1, 1, 1});
     glUniformMatrix4fv(r.mesh.model, 1, GL_FALSE, identity.data());
-    glUniform1f(r.mesh.grid, 0.0f);
     drawn = 0;
     world.view<const SpringNetwork>().each([&](Entity e, const SpringNetwork& net) {
         const auto c = palette(drawn++);
@@ -1257,8 +1564,9 @@ void renderWorld(World& world, const StepContext& ctx) {
         }
         drawBalls(r, net, drawnPositions(world, e, net, ctx.alpha, r.positions, pool), c);
     });
+    drawGround(world, r, look, viewProjection, eye, light, lightViewProjection);
     if (scene.renderSkyGradient) {
-        drawSky(r, look, viewProjection, eye);
+        drawSky(world, r, viewProjection);
     }
     drawWaters(world, r, pool, look, viewProjection, eye, light, lightViewProjection);
 

@@ -82,6 +82,53 @@ TEST(RenderLook, TheSkyPalesFromTheZenithToTheHorizonAndDarkensBelowIt) {
     }
 }
 
+TEST(RenderLook, TheSkyShowsWhereverTheGroundLeavesItSeen) {
+    // the sky is drawn only in the rows a ground plane does not cover from edge to edge: over a ground,
+    // looking level, the rows above the horizon (the ground below); under a ceiling, the rows below it. Each
+    // row the plane leaves holds the sky of the same view without it, within a level (a row or two at the
+    // horizon left out: the plane's edge 200 m away, antialiased)
+    const std::string plane = R"(
+[[entity]]
+name = "plane"
+[entity.transform]
+position = [0.0, HEIGHT, 0.0]
+[entity.rigid_body]
+shape = "plane"
+normal = [0.0, NORMAL, 0.0]
+color = [0.3, 0.3, 0.3]
+)";
+    auto with = [&](const std::string& height, const std::string& normal) {
+        std::string s = plane;
+        s.replace(s.find("HEIGHT"), 6, height);
+        s.replace(s.find("NORMAL"), 6, normal);
+        return s;
+    };
+    const std::string view = head("[0.0, 1.0, 0.0]", "[0.0, 1.0, -10.0]", "shadows = false\n");
+    const Image sky = renderOnce(view);
+    const Image ground = renderOnce(view + with("-2.0", "1.0"));
+    const Image ceiling = renderOnce(view + with("4.0", "-1.0"));
+    int seen = 0;
+    for (int y = 0; y < sky.height; ++y) {
+        const bool aboveHorizon = y<236, belowHorizon = y> 243;
+        for (int x = 0; x < sky.width; x += 5) {
+            for (int c = 0; c < 3; ++c) {
+                if (aboveHorizon) {
+                    EXPECT_NEAR(int(ground.at(x, y)[c]), int(sky.at(x, y)[c]), 1)
+                        << "over the ground: " << x << ", " << y;
+                } else if (belowHorizon) {
+                    EXPECT_NEAR(int(ceiling.at(x, y)[c]), int(sky.at(x, y)[c]), 1)
+                        << "under the ceiling: " << x << ", " << y;
+                }
+            }
+            seen += aboveHorizon || belowHorizon;
+        }
+    }
+    EXPECT_GT(seen, 60000);
+    // and where the plane is, it is seen: the ground's grey, not the sky
+    EXPECT_LT(int(ground.at(320, 470)[2]), 150);
+    EXPECT_LT(int(ceiling.at(320, 10)[2]), 150);
+}
+
 /// A 10 m square slab of colour `colour`, its top at y = 0.5, seen from 2 m above its top.
 std::string slabFromAbove(const std::string& render, const std::string& colour) {
     return head("[0.0, 2.5, 0.0001]", "[0.0, 0.0, 0.0]", render + "shadows = false\n") +

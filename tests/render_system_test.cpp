@@ -220,11 +220,12 @@ links = [ { a = 0, b = 1 } ]
 }
 
 /// A grey ground plane (a grid line every metre) seen from 6 m straight above (0.5, 0, 0.5), a cell's middle.
-std::string groundFromAbove(const std::string& light) {
+/// A grey ground seen from 6 m above, lit along `light`, drawn with `msaa` samples and `more` [render] keys.
+std::string groundFromAbove(const std::string& light, int msaa = 1, const std::string& more = "") {
     return "[scene]\nname = \"ground\"\ngravity = [0, 0, 0]\n[camera]\neye = [0.5, 6.0, 0.5001]\ntarget = "
            "[0.5, 0.0, "
-           "0.5]\nfov_deg = 45.0\n[render]\nwidth = 640\nheight = 480\nmsaa = 1\nlight_direction = " +
-           light + "\n" + kPlainLook + R"(
+           "0.5]\nfov_deg = 45.0\n[render]\nwidth = 640\nheight = 480\nmsaa = " +
+           std::to_string(msaa) + "\nlight_direction = " + light + "\n" + more + kPlainLook + R"(
 [[entity]]
 name = "ground"
 [entity.rigid_body]
@@ -261,6 +262,98 @@ radius = 0.5
     const Image bare = renderOnce(groundFromAbove(light));
     for (const int x : {shadowX, mirrorX, 320}) {
         EXPECT_GT(bare.at(x, 240)[0], 150) << "nothing casts: lit at " << x;
+    }
+}
+
+/// Counts the pixels where `a` is brighter than `b` by more than a level in some channel, and those where it
+/// is darker by more than `dark` levels in every channel.
+std::pair<int, int> brighterAndDarker(const Image& a, const Image& b, int dark) {
+    int brighter = 0, darker = 0;
+    for (int y = 0; y < a.height; ++y) {
+        for (int x = 0; x < a.width; ++x) {
+            const std::uint8_t *p = a.at(x, y), *q = b.at(x, y);
+            bool more = false, less = true;
+            for (int c = 0; c < 3; ++c) {
+                more = more || int(p[c]) > int(q[c]) + 1;
+                less = less && int(p[c]) < int(q[c]) - dark;
+            }
+            brighter += more;
+            darker += less;
+        }
+    }
+    return {brighter, darker};
+}
+
+TEST(RenderSystem, TheGroundWhereTheShadowMapEndsHasNoSeam) {
+    // the ground is drawn in two parts: where the shadow map reaches (with its lookups) and beyond it. The
+    // ball's map ends in the middle of this view; a crack between the parts would show the background
+    // (brighter than the ground), a part drawn lit where it should not be would be brighter than without
+    // shadows too. With shadows a pixel may only be darker, and the ball's shadow is
+    const std::string ball = R"(
+[[entity]]
+name = "ball"
+[entity.transform]
+position = [0.5, 2.0, 0.5]
+[entity.rigid_body]
+shape = "sphere"
+radius = 0.5
+)";
+    for (const int msaa : {1, 4}) {
+        const std::string light = "[0.7071, -0.7071, 0.0]";
+        const Image shadowed = renderOnce(groundFromAbove(light, msaa) + ball);
+        const Image plain = renderOnce(groundFromAbove(light, msaa, "shadows = false\n") + ball);
+        const auto [brighter, darker] = brighterAndDarker(shadowed, plain, 40);
+        EXPECT_EQ(brighter, 0) << msaa << " samples: pixels brighter with shadows than without";
+        EXPECT_GT(darker, 3000) << msaa << " samples: the ball's shadow (about 11,000 pixels)";
+    }
+}
+
+TEST(RenderSystem, TheGroundIsTheSameColourOnAndOffTheShadowMap) {
+    // with the default look (gamma, the hemisphere's ambient), the ground off the shadow map is written from
+    // a quadratic in the grid's cover, on the map through the sRGB curve. With nothing that casts the whole
+    // ground is on the map (and lit); without shadows, all of it is off: every pixel the same within a
+    // level, at every cover the grid's lines take from near to far. Between the lines the colour is the
+    // ground's lit in linear light: 0.5 (0.75 background + cos 30 degrees), the background (0.6, 0.7, 0.9)
+    const std::string scene = R"([scene]
+name = "ground"
+gravity = [0, 0, 0]
+[camera]
+eye = [0.5, 3.0, 0.5]
+target = [0.5, 0.0, -6.0]
+fov_deg = 45.0
+[render]
+width = 640
+height = 480
+background = [0.6, 0.7, 0.9]
+light_direction = [0.5, -0.8660254, 0.0]
+)";
+    const std::string ground = R"(
+[[entity]]
+name = "ground"
+[entity.rigid_body]
+shape = "plane"
+normal = [0.0, 1.0, 0.0]
+color = [0.5, 0.5, 0.5]
+)";
+    for (const int msaa : {1, 4}) {
+        const std::string samples = "msaa = " + std::to_string(msaa) + "\n";
+        const Image onMap = renderOnce(scene + samples + ground);
+        const Image offMap = renderOnce(scene + samples + "shadows = false\n" + ground);
+        int differing = 0;
+        for (std::size_t i = 0; i < onMap.rgba.size(); ++i) {
+            differing += std::abs(int(onMap.rgba[i]) - int(offMap.rgba[i])) > 1;
+        }
+        EXPECT_EQ(differing, 0) << msaa << " samples: channels more than a level apart";
+    }
+    // the pixel at the middle of the view's bottom row (47 degrees down) looks at the ground 2.8 m ahead,
+    // near (0.5, 0, -2.3): inside a cell (lines on whole metres)
+    const Image img = renderOnce(scene + "shadows = false\n" + ground);
+    auto lin = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+    auto srgb = [](double c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055; };
+    const double background[3] = {0.6, 0.7, 0.9};
+    for (int c = 0; c < 3; ++c) {
+        const double lit = lin(0.5) * (0.75 * lin(background[c]) + std::cos(std::numbers::pi / 6.0));
+        EXPECT_NEAR(double(img.at(320, 479)[c]), 255.0 * srgb(std::min(lit, 1.0)), 2.0) << "channel " << c;
     }
 }
 

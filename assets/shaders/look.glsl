@@ -10,8 +10,15 @@ uniform vec3 uNadir;   // below the horizon (what a surface facing down reflects
 
 vec3 encode(vec3 c) {
 #ifdef GAMMA
+    // above 0.0031308 the curve 1.055 c^(1/2.4) - 0.055, as a sum of c's square, fourth and eighth roots
+    // (fitted to it by weighted least squares: within 0.05 of a level of 255); three square roots cost a
+    // CPU rasteriser less than pow's logarithm and exponential (the avalanche's frame 7% less on llvmpipe)
     c = clamp(c, 0.0, 1.0);
-    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+    vec3 r2 = sqrt(c);
+    vec3 r4 = sqrt(r2);
+    vec3 r8 = sqrt(r4);
+    vec3 curve = 0.5545175 * r2 + 0.8999643 * r4 - 0.4887089 * r8 + 0.0344285;
+    return mix(c * 12.92, curve, step(vec3(0.0031308), c));
 #else
     return c;
 #endif

@@ -1,10 +1,10 @@
 #version 300 es
 // One key light, which casts shadows with SHADOWS defined (a shadow map, percentage-closer filtered), ambient light from the sky
 // above and the ground below (a hemisphere), two-sided (cloth shows both faces), and a darkening near the
-// ground for contact. A ground plane carries a grid. Compiled with WATER defined, it draws water:
-// see-through, reflecting the sky by Fresnel (a program of its own, not a uniform: a CPU rasteriser pays
-// for both sides of a branch on a uniform). look.glsl (put in after the #version line) gives the colour
-// spaces and the sky.
+// ground for contact. Compiled with GROUND defined, it draws a ground plane, which carries a grid; with
+// WATER, water: see-through, reflecting the sky by Fresnel (programs of their own, not uniforms: a CPU
+// rasteriser pays for both sides of a branch on a uniform). look.glsl (put in after the #version line)
+// gives the colour spaces and the sky.
 precision highp sampler2DShadow;
 in vec3 vNormal;
 in vec3 vWorld;
@@ -13,7 +13,6 @@ uniform vec3 uLightDir;
 uniform float uKey;          // the key light's strength
 uniform vec3 uSkyLight;      // ambient from straight above (a surface facing up gets all of it)
 uniform vec3 uGroundLight;   // ambient from straight below
-uniform float uGrid;         // 1: a ground plane, with a grid
 uniform vec3 uEye;
 out vec4 fragColor;
 
@@ -37,6 +36,7 @@ float lightReaching() {
 }
 #endif
 
+#ifdef GROUND
 // How much of this pixel the grid's lines cover: lines 4 cm wide every metre along x and along z, each
 // averaged over the pixel's footprint (fwidth: metres a pixel). A line thinner than a pixel is drawn a
 // pixel wide and as much fainter, and as the footprint grows towards half a metre the lines fade into
@@ -50,6 +50,7 @@ float gridCover(vec2 p) {
     cover = mix(cover, vec2(2.0 * halfWidth), smoothstep(0.15, 0.5, w));
     return cover.x + cover.y - cover.x * cover.y;
 }
+#endif
 
 #ifdef WATER
 // Water: the sky reflected by Schlick's Fresnel term (2% head on, all of it at grazing angles), the
@@ -66,6 +67,28 @@ vec4 water(vec3 n, vec3 lit, float reaching) {
 }
 #endif
 
+#ifdef GROUND
+// A ground plane: its normal, and so its light, is the same all over it. The CPU works out its colour lit
+// by the key light (uGroundLit: the colour times ambient plus key times diffuse) and in shadow
+// (uGroundShade: times ambient), and, for where no shadow reaches, the written colour as a quadratic in the
+// grid's cover (uCover0 + g (uCover1 + g uCover2), through the written colours at g = 0, 1/2 and 1): that
+// spares each pixel the sRGB curve, and with it most of a CPU rasteriser's time on the far floor.
+uniform vec3 uGroundLit;
+uniform vec3 uGroundShade;
+uniform vec3 uCover0;
+uniform vec3 uCover1;
+uniform vec3 uCover2;
+
+void main() {
+    float g = gridCover(vWorld.xz);
+#ifdef SHADOWS
+    vec3 lit = mix(uGroundShade, uGroundLit, lightReaching()) * (1.0 - 0.3 * g);
+    fragColor = vec4(encode(lit), uColor.a);
+#else
+    fragColor = vec4(uCover0 + g * (uCover1 + g * uCover2), uColor.a);
+#endif
+}
+#else
 void main() {
     // the side that faces the camera is the lit one, whatever the winding (two-sided cloth)
     vec3 n = normalize(vNormal);
@@ -75,10 +98,7 @@ void main() {
     float diffuse = max(dot(n, -uLightDir), 0.0);
     float reaching = lightReaching();
     vec3 base = uColor.rgb;
-    if (uGrid > 0.0) {
-        base *= 1.0 - 0.3 * gridCover(vWorld.xz);
-    }
-    float contact = uGrid > 0.0 ? 1.0 : mix(0.75, 1.0, clamp(vWorld.y * 4.0, 0.0, 1.0));
+    float contact = mix(0.75, 1.0, clamp(vWorld.y * 4.0, 0.0, 1.0));
     vec3 ambient = mix(uGroundLight, uSkyLight, 0.5 + 0.5 * n.y);
     vec3 lit = base * (ambient + uKey * diffuse * reaching) * contact;
 #ifdef WATER
@@ -87,3 +107,4 @@ void main() {
     fragColor = vec4(encode(lit), uColor.a);
 #endif
 }
+#endif
