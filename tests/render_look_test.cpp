@@ -87,26 +87,11 @@ TEST(RenderLook, TheSkyShowsWhereverTheGroundLeavesItSeen) {
     // looking level, the rows above the horizon (the ground below); under a ceiling, the rows below it. Each
     // row the plane leaves holds the sky of the same view without it, within a level (a row or two at the
     // horizon left out: the plane's edge 200 m away, antialiased)
-    const std::string plane = R"(
-[[entity]]
-name = "plane"
-[entity.transform]
-position = [0.0, HEIGHT, 0.0]
-[entity.rigid_body]
-shape = "plane"
-normal = [0.0, NORMAL, 0.0]
-color = [0.3, 0.3, 0.3]
-)";
-    auto with = [&](const std::string& height, const std::string& normal) {
-        std::string s = plane;
-        s.replace(s.find("HEIGHT"), 6, height);
-        s.replace(s.find("NORMAL"), 6, normal);
-        return s;
-    };
     const std::string view = head("[0.0, 1.0, 0.0]", "[0.0, 1.0, -10.0]", "shadows = false\n");
     const Image sky = renderOnce(view);
-    const Image ground = renderOnce(view + with("-2.0", "1.0"));
-    const Image ceiling = renderOnce(view + with("4.0", "-1.0"));
+    const std::string grey = "[0.3, 0.3, 0.3]";
+    const Image ground = renderOnce(view + test::planeEntity("[0.0, -2.0, 0.0]", "[0.0, 1.0, 0.0]", grey));
+    const Image ceiling = renderOnce(view + test::planeEntity("[0.0, 4.0, 0.0]", "[0.0, -1.0, 0.0]", grey));
     int seen = 0;
     for (int y = 0; y < sky.height; ++y) {
         const bool aboveHorizon = y<236, belowHorizon = y> 243;
@@ -190,14 +175,7 @@ TEST(RenderLook, TheFloorGridFadesIntoItsAverageWithoutMoire) {
     // shade
     const Image img =
         renderOnce(head("[0.3, 3.0, 0.2]", "[0.3, 3.0, -10.0]", "shadows = false\n", 1280, 720) +
-                   R"(
-[[entity]]
-name = "ground"
-[entity.rigid_body]
-shape = "plane"
-normal = [0.0, 1.0, 0.0]
-color = [0.6, 0.6, 0.6]
-)");
+                   test::planeEntity("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "[0.6, 0.6, 0.6]"));
     const double f = 360.0 / std::tan(22.5 * std::numbers::pi / 180.0);
     std::vector<double> mean(img.height, 0.0);
     for (int y = 0; y < img.height; ++y) {

@@ -58,4 +58,11 @@ inline std::string boxEntity(const std::string& name, const std::string& positio
            "\n";
 }
 
+/// A scenario's static ground plane entity: TOML arrays for a point on it, its normal and its colour.
+inline std::string planeEntity(const std::string& position, const std::string& normal,
+                               const std::string& colour) {
+    return "\n[[entity]]\nname = \"plane\"\n[entity.transform]\nposition = " + position +
+           "\n[entity.rigid_body]\nshape = \"plane\"\nnormal = " + normal + "\ncolor = " + colour + "\n";
+}
+
 } // namespace tumble::test

@@ -219,29 +219,18 @@ links = [ { a = 0, b = 1 } ]
     EXPECT_NEAR(double(shadowed), disc, 0.1 * disc);
 }
 
-/// A grey ground plane (a grid line every metre) seen from 6 m straight above (0.5, 0, 0.5), a cell's middle.
-/// A grey ground seen from 6 m above, lit along `light`, drawn with `msaa` samples and `more` [render] keys.
+/// A grey ground plane (a grid line every metre) seen from 6 m straight above (0.5, 0, 0.5), a cell's middle,
+/// lit along `light`, drawn with `msaa` samples and `more` [render] keys.
 std::string groundFromAbove(const std::string& light, int msaa = 1, const std::string& more = "") {
     return "[scene]\nname = \"ground\"\ngravity = [0, 0, 0]\n[camera]\neye = [0.5, 6.0, 0.5001]\ntarget = "
            "[0.5, 0.0, "
            "0.5]\nfov_deg = 45.0\n[render]\nwidth = 640\nheight = 480\nmsaa = " +
-           std::to_string(msaa) + "\nlight_direction = " + light + "\n" + more + kPlainLook + R"(
-[[entity]]
-name = "ground"
-[entity.rigid_body]
-shape = "plane"
-normal = [0.0, 1.0, 0.0]
-color = [0.8, 0.8, 0.8]
-)";
+           std::to_string(msaa) + "\nlight_direction = " + light + "\n" + more + kPlainLook +
+           test::planeEntity("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "[0.8, 0.8, 0.8]");
 }
 
-TEST(RenderSystem, AnObliqueShadowFallsBesideItsCasterAndTheGroundOffTheMapIsLit) {
-    // a ball of radius 0.5 m 2 m above the ground, the light 45 degrees from straight down along +x: its
-    // shadow is centred 2 m along x from below it. The ground lit is 0.8 (0.35 + 0.75 cos 45) = 0.70 (180),
-    // in shadow 0.8 x 0.35 = 0.28 (71). The shadow map spans the ball alone: the ground away from it is
-    // read off the map, and is lit. Pixels at cells' middles (the grid lines are on whole metres)
-    const std::string light = "[0.7071, -0.7071, 0.0]";
-    const Image img = renderOnce(groundFromAbove(light) + R"(
+/// A ball of radius 0.5 m, its centre 2 m above (0.5, 0, 0.5).
+const std::string kBallTwoMetresUp = R"(
 [[entity]]
 name = "ball"
 [entity.transform]
@@ -249,7 +238,15 @@ position = [0.5, 2.0, 0.5]
 [entity.rigid_body]
 shape = "sphere"
 radius = 0.5
-)");
+)";
+
+TEST(RenderSystem, AnObliqueShadowFallsBesideItsCasterAndTheGroundOffTheMapIsLit) {
+    // a ball of radius 0.5 m 2 m above the ground, the light 45 degrees from straight down along +x: its
+    // shadow is centred 2 m along x from below it. The ground lit is 0.8 (0.35 + 0.75 cos 45) = 0.70 (180),
+    // in shadow 0.8 x 0.35 = 0.28 (71). The shadow map spans the ball alone: the ground away from it is
+    // read off the map, and is lit. Pixels at cells' middles (the grid lines are on whole metres)
+    const std::string light = "[0.7071, -0.7071, 0.0]";
+    const Image img = renderOnce(groundFromAbove(light) + kBallTwoMetresUp);
     const double metre = 480.0 / (2.0 * std::tan(45.0 * std::numbers::pi / 360.0)) / 6.0; // pixels
     const int shadowX = int(320 + 2.0 * metre), mirrorX = int(320 - 2.0 * metre);
     EXPECT_LT(img.at(shadowX, 240)[0], 111) << "the shadow, 2 m along the light from below the ball";
@@ -289,15 +286,7 @@ TEST(RenderSystem, TheGroundWhereTheShadowMapEndsHasNoSeam) {
     // ball's map ends in the middle of this view; a crack between the parts would show the background
     // (brighter than the ground), a part drawn lit where it should not be would be brighter than without
     // shadows too. With shadows a pixel may only be darker, and the ball's shadow is
-    const std::string ball = R"(
-[[entity]]
-name = "ball"
-[entity.transform]
-position = [0.5, 2.0, 0.5]
-[entity.rigid_body]
-shape = "sphere"
-radius = 0.5
-)";
+    const std::string& ball = kBallTwoMetresUp;
     for (const int msaa : {1, 4}) {
         const std::string light = "[0.7071, -0.7071, 0.0]";
         const Image shadowed = renderOnce(groundFromAbove(light, msaa) + ball);
@@ -327,14 +316,7 @@ height = 480
 background = [0.6, 0.7, 0.9]
 light_direction = [0.5, -0.8660254, 0.0]
 )";
-    const std::string ground = R"(
-[[entity]]
-name = "ground"
-[entity.rigid_body]
-shape = "plane"
-normal = [0.0, 1.0, 0.0]
-color = [0.5, 0.5, 0.5]
-)";
+    const std::string ground = test::planeEntity("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "[0.5, 0.5, 0.5]");
     for (const int msaa : {1, 4}) {
         const std::string samples = "msaa = " + std::to_string(msaa) + "\n";
         const Image onMap = renderOnce(scene + samples + ground);
