@@ -21,6 +21,7 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -34,6 +35,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace tumble {
@@ -484,6 +486,11 @@ std::string sessionPath(const std::string& base, int session) {
 struct InputState {
     std::vector<int> keys; ///< keys pressed
     double scroll = 0.0;
+    /// where the cursor was (window coordinates) at the first left press since the last frame: a slow frame
+    /// must not pick where the cursor has moved on to since (a press, then a drag, all within one frame).
+    /// Taken from the motion events before the press: glfwGetCursorPos asks X where the pointer is now
+    std::optional<std::array<double, 2>> leftPress;
+    std::optional<std::array<double, 2>> cursor; ///< as of the last motion event handled
 };
 
 InputState* g_input = nullptr;
@@ -757,8 +764,13 @@ void Viewer::handleMouse() {
     const bool left = glfwGetMouseButton(m_window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
     const bool right = glfwGetMouseButton(m_window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS ||
                        glfwGetMouseButton(m_window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+    const std::optional<std::array<double, 2>> press = std::exchange(g_input->leftPress, std::nullopt);
     if (m_drag == Drag::None && !io.WantCaptureMouse) {
-        if (left) {
+        if (press) {
+            // where the press was, in framebuffer pixels (a press and release within one frame still holds)
+            pressLeft((*press)[0] * double(fbW) / std::max(winW, 1),
+                      (*press)[1] * double(fbH) / std::max(winH, 1));
+        } else if (left) {
             pressLeft(x, y);
         } else if (right) {
             m_drag = Drag::Pan;
@@ -905,6 +917,20 @@ bool Viewer::openWindow() {
         }
     });
     glfwSetScrollCallback(m_window, [](GLFWwindow*, double, double y) { g_input->scroll += y; });
+    glfwSetCursorPosCallback(m_window, [](GLFWwindow*, double x, double y) {
+        g_input->cursor = std::array{x, y};
+    });
+    glfwSetMouseButtonCallback(m_window, [](GLFWwindow* window, int button, int action, int) {
+        if (button == GLFW_MOUSE_BUTTON_LEFT && action == GLFW_PRESS && !g_input->leftPress) {
+            std::array<double, 2> at{};
+            if (g_input->cursor) {
+                at = *g_input->cursor;
+            } else {
+                glfwGetCursorPos(window, &at[0], &at[1]); // no motion seen yet: where it is
+            }
+            g_input->leftPress = at;
+        }
+    });
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();
     ImGui::GetIO().IniFilename = nullptr;
