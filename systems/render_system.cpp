@@ -397,7 +397,8 @@ struct Renderer {
     /// only when one of those changes.
     GLuint skyTexture = 0, skyFbo = 0;
     int skyWidth = 0, skyHeight = 0;
-    std::vector<float> skyDrawnFor;
+    /// (the inverse view-projection, 16 floats; the eye and the look's three colours, 12; the size, 2)
+    std::optional<std::array<float, 30>> skyDrawnFor;
     /// Uniform locations, looked up once when the programs are linked.
     struct MeshUniforms {
         GLint viewProjection = -1, model = -1, colour = -1, lightDir = -1, eye = -1;
@@ -1308,11 +1309,16 @@ constexpr GLint kSkyTextureUnit = 4; ///< (the smoke pass has units 0 to 2, the 
 void updateSky(Renderer& r, const Look& look, const Mat4& viewProjection, const Vec3& eye) {
     const int width = r.target->width(), height = r.target->height();
     const Eigen::Matrix4f inverse = Eigen::Map<const Eigen::Matrix4f>(viewProjection.data()).inverse();
-    std::vector<float> key(inverse.data(), inverse.data() + 16);
+    std::array<float, 30> key{};
+    std::copy(inverse.data(), inverse.data() + 16, key.begin());
+    std::size_t at = 16;
     for (const Vec3& v : {eye, look.zenith, look.horizon, look.nadir}) {
-        key.insert(key.end(), {float(v.x), float(v.y), float(v.z)});
+        for (const double c : {v.x, v.y, v.z}) {
+            key[at++] = float(c);
+        }
     }
-    key.insert(key.end(), {float(width), float(height)});
+    key[28] = float(width);
+    key[29] = float(height);
     if (key == r.skyDrawnFor) {
         return;
     }
@@ -1350,27 +1356,39 @@ void updateSky(Renderer& r, const Look& look, const Mat4& viewProjection, const 
                 2.0f * kSkyTexelPixels / float(height));
     glBindVertexArray(r.skyVao);
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    r.skyDrawnFor = std::move(key);
+    r.skyDrawnFor = key;
 }
 
-/// A convex polygon in clip space (x, y, z, w) cut by the half-space a . p >= 0 (Sutherland and Hodgman).
-std::vector<std::array<double, 4>> clipPolygon(const std::vector<std::array<double, 4>>& polygon,
-                                               const std::array<double, 4>& a) {
-    std::vector<std::array<double, 4>> out;
+/// A convex polygon in clip space (x, y, z, w) of up to eight corners: a ground plane's square cut by
+/// two planes has at most six.
+struct ClipPolygon {
+    std::array<std::array<double, 4>, 8> corners{};
+    std::size_t size = 0;
+
+    void push(const std::array<double, 4>& p) {
+        if (size < corners.size()) {
+            corners[size++] = p;
+        }
+    }
+};
+
+/// A convex polygon cut by the half-space a . p >= 0 (Sutherland and Hodgman).
+ClipPolygon clipPolygon(const ClipPolygon& polygon, const std::array<double, 4>& a) {
+    ClipPolygon out;
     auto side = [&](const std::array<double, 4>& p) {
         return a[0] * p[0] + a[1] * p[1] + a[2] * p[2] + a[3] * p[3];
     };
-    for (std::size_t i = 0; i < polygon.size(); ++i) {
-        const auto& p = polygon[i];
-        const auto& q = polygon[(i + 1) % polygon.size()];
+    for (std::size_t i = 0; i < polygon.size; ++i) {
+        const auto& p = polygon.corners[i];
+        const auto& q = polygon.corners[(i + 1) % polygon.size];
         const double sp = side(p), sq = side(q);
         if (sp >= 0.0) {
-            out.push_back(p);
+            out.push(p);
         }
         if ((sp >= 0.0) != (sq >= 0.0)) {
             const double t = sp / (sp - sq);
-            out.push_back({p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t, p[2] + (q[2] - p[2]) * t,
-                           p[3] + (q[3] - p[3]) * t});
+            out.push({p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t, p[2] + (q[2] - p[2]) * t,
+                      p[3] + (q[3] - p[3]) * t});
         }
     }
     return out;
@@ -1388,11 +1406,11 @@ std::pair<int, int> skyRows(World& world, const Mat4& viewProjection, int width,
             return;
         }
         const Mat4 m = multiply(viewProjection, groundModel(b));
-        std::vector<std::array<double, 4>> polygon;
+        ClipPolygon polygon;
         for (const auto& [x, z] :
              {std::pair{-1.0, -1.0}, std::pair{1.0, -1.0}, std::pair{1.0, 1.0}, std::pair{-1.0, 1.0}}) {
-            polygon.push_back({m[0] * x + m[8] * z + m[12], m[1] * x + m[9] * z + m[13],
-                               m[2] * x + m[10] * z + m[14], m[3] * x + m[11] * z + m[15]});
+            polygon.push({m[0] * x + m[8] * z + m[12], m[1] * x + m[9] * z + m[13],
+                          m[2] * x + m[10] * z + m[14], m[3] * x + m[11] * z + m[15]});
         }
         // what the rasteriser draws of it: between the near (z >= -w) and far (z <= w) planes
         polygon = clipPolygon(clipPolygon(polygon, {0, 0, 1, 1}), {0, 0, -1, 1});
@@ -1400,9 +1418,9 @@ std::pair<int, int> skyRows(World& world, const Mat4& viewProjection, int width,
         double lo = -1e300, hi = 1e300;
         for (const double edge : {0.0, double(width)}) {
             double a = 1e300, c = -1e300;
-            for (std::size_t i = 0; i < polygon.size(); ++i) {
-                const auto& p = polygon[i];
-                const auto& q = polygon[(i + 1) % polygon.size()];
+            for (std::size_t i = 0; i < polygon.size; ++i) {
+                const auto& p = polygon.corners[i];
+                const auto& q = polygon.corners[(i + 1) % polygon.size];
                 const double px = (p[0] / p[3] + 1.0) * 0.5 * width, py = (p[1] / p[3] + 1.0) * 0.5 * height;
                 const double qx = (q[0] / q[3] + 1.0) * 0.5 * width, qy = (q[1] / q[3] + 1.0) * 0.5 * height;
                 if (std::min(px, qx) <= edge && edge <= std::max(px, qx)) {
