@@ -37,13 +37,14 @@ StopSignal::StopSignal() {
     stop.sa_handler = onStopSignal;
     stop.sa_flags = SA_RESETHAND;
     sigemptyset(&stop.sa_mask);
-    ::sigaction(SIGINT, &stop, nullptr);
-    ::sigaction(SIGTERM, &stop, nullptr);
+    ::sigaction(SIGINT, &stop, &m_previousInt);
+    ::sigaction(SIGTERM, &stop, &m_previousTerm);
 }
 
 StopSignal::~StopSignal() {
-    std::signal(SIGINT, SIG_DFL);
-    std::signal(SIGTERM, SIG_DFL);
+    // the handlers from before (a program embedding the library keeps its own)
+    ::sigaction(SIGINT, &m_previousInt, nullptr);
+    ::sigaction(SIGTERM, &m_previousTerm, nullptr);
 }
 
 bool StopSignal::requested() const {

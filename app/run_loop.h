@@ -6,6 +6,8 @@
 #include "engine/fixed_loop.h"
 #include "engine/run_report.h"
 
+#include <signal.h> // struct sigaction (POSIX)
+
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -27,7 +29,8 @@ private:
 };
 
 /// While it lives, the first SIGINT or SIGTERM asks the run to stop (requested() turns true; the loop ends
-/// at its next frame and keeps its outputs) and a second one kills the process as usual.
+/// at its next frame and keeps its outputs) and a second one kills the process as usual; the handlers from
+/// before are put back when it goes.
 class StopSignal {
 public:
     StopSignal();
@@ -35,6 +38,10 @@ public:
     StopSignal(const StopSignal&) = delete;
     StopSignal& operator=(const StopSignal&) = delete;
     bool requested() const;
+
+private:
+    struct sigaction m_previousInt {
+    }, m_previousTerm{}; ///< put back when it goes
 };
 
 /// Says each failure and note of a run's RunReport once, in the order they were added.

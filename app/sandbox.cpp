@@ -8,6 +8,7 @@
 #include "engine/dump.h"
 #include "engine/json.h"
 #include "engine/name.h"
+#include "engine/parallel.h"
 #include "engine/replay.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
@@ -17,6 +18,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace tumble {
 
@@ -31,6 +34,25 @@ double jsonNumber(const nlohmann::json& j) {
     return s == "Infinity" ? HUGE_VAL : s == "-Infinity" ? -HUGE_VAL : std::nan("");
 }
 
+/// A thread count as Sandbox and verifyReplay take it: 0 for the default, else 1 to kMaxThreads.
+int threadCount(int threads) {
+    if (threads < 0 || threads > kMaxThreads) {
+        throw std::invalid_argument("threads must be 0 (every hardware thread, or $TUMBLE_THREADS) or 1 to " +
+                                    std::to_string(kMaxThreads) + ", not " + std::to_string(threads));
+    }
+    return threads > 0 ? threads : defaultThreadCount();
+}
+
+/// An action's number as --input and [[event]] take it: finite, within +-1e9.
+double actionNumber(double v, const char* what) {
+    if (!std::isfinite(v) || std::abs(v) > 1e9) {
+        throw ScenarioError("apply", 0, 0,
+                            std::string("'") + what +
+                                "' must be a finite number within +-1e9 (as in a scenario)");
+    }
+    return v;
+}
+
 } // namespace
 
 struct Sandbox::State {
@@ -39,6 +61,7 @@ struct Sandbox::State {
     std::vector<std::string> sets;
     std::unique_ptr<Simulation> sim;
     std::unique_ptr<ReplayWriter> recorder;
+    std::string recordingTo;          ///< the recorder's file
     std::vector<EntityHash> entities; ///< scratch: a frame's entity hashes
 
     /// The named entity the dump lists and the codec that writes it (the first that claims it, as the dump
@@ -54,6 +77,13 @@ struct Sandbox::State {
                 if (codec.has(world, e)) {
                     return {e, &codec};
                 }
+            }
+        }
+        for (Entity e : world.entities()) {
+            if (const Name* n = world.tryGet<Name>(e); n && n->value == name) {
+                throw ScenarioError(path, 0, 0,
+                                    "entity '" + name +
+                                        "' has no state the dump lists (no positions or velocities)");
             }
         }
         throw ScenarioError(path, 0, 0, "no entity '" + name + "' in the scene");
@@ -112,8 +142,15 @@ Sandbox::Sandbox(const std::string& scenario, const std::vector<std::string>& se
     m->path = resolveScenario(scenario);
     m->text = readScenarioFile(m->path);
     m->sets = sets;
-    m->sim =
-        std::make_unique<Simulation>(builtinCatalog(), m->path, m->text, sets, kDefaultMemoryCap, threads);
+    m->sim = std::make_unique<Simulation>(builtinCatalog(), m->path, m->text, sets, kDefaultMemoryCap,
+                                          threadCount(threads));
+}
+
+Sandbox::State& Sandbox::live() const {
+    if (!m) {
+        throw std::logic_error("tumble::Sandbox: used after it was moved from");
+    }
+    return *m;
 }
 
 Sandbox::~Sandbox() {
@@ -130,27 +167,32 @@ Sandbox::Sandbox(Sandbox&&) noexcept = default;
 Sandbox& Sandbox::operator=(Sandbox&&) noexcept = default;
 
 void Sandbox::step(int frames) {
+    State& s = live();
+    if (frames < 0) {
+        throw std::invalid_argument("step: frames must be 0 or more, not " + std::to_string(frames));
+    }
     for (int i = 0; i < frames; ++i) {
-        m->sim->runFrame();
-        m->afterFrame();
+        s.sim->runFrame();
+        s.afterFrame();
     }
 }
 
 std::uint64_t Sandbox::frame() const {
-    return m->sim->frame();
+    return live().sim->frame();
 }
 
 double Sandbox::time() const {
-    return m->sim->time();
+    return live().sim->time();
 }
 
 double Sandbox::dt() const {
-    return m->sim->scene().dt;
+    return live().sim->scene().dt;
 }
 
 std::map<std::string, std::string> Sandbox::entities() const {
+    const State& s = live();
     std::vector<EntityHash> hashes;
-    frameHashes(m->sim->world(), m->sim->catalog(), hashes, m->sim->pool());
+    frameHashes(s.sim->world(), s.sim->catalog(), hashes, s.sim->pool());
     std::map<std::string, std::string> out;
     for (const EntityHash& e : hashes) {
         out[e.name] = e.kind;
@@ -159,70 +201,80 @@ std::map<std::string, std::string> Sandbox::entities() const {
 }
 
 std::vector<std::array<double, 3>> Sandbox::x(const std::string& entity) const {
-    return m->rows(entity, "x");
+    return live().rows(entity, "x");
 }
 
 std::vector<std::array<double, 3>> Sandbox::v(const std::string& entity) const {
-    return m->rows(entity, "v");
+    return live().rows(entity, "v");
 }
 
 int Sandbox::dimensions(const std::string& entity) const {
-    return m->dumped(entity).second->kind == "rigid2d" ? 2 : 3;
+    return live().dumped(entity).second->kind == "rigid2d" ? 2 : 3;
 }
 
 void Sandbox::apply(const std::string& entity, const std::string& action, const std::vector<double>& value,
                     std::optional<std::array<double, 3>> position, std::optional<double> radius,
                     std::optional<double> amount) {
+    State& s = live();
     EventDef ev;
-    ev.step = m->sim->step();
+    ev.step = s.sim->step();
     ev.entity = entity;
     ev.action = action;
-    ev.value = value;
+    // the numbers as --input and a scenario take them (a replay refuses any other)
+    if (value.size() > 4096) {
+        throw ScenarioError("apply", 0, 0, "'value' has too many numbers (at most 4096)");
+    }
+    for (const double v : value) {
+        ev.value.push_back(actionNumber(v, "value"));
+    }
     std::vector<std::string> present;
     if (!value.empty()) {
         present.push_back("value");
     }
     if (position) {
-        ev.position = *position;
+        for (std::size_t k = 0; k < 3; ++k) {
+            ev.position[k] = actionNumber((*position)[k], "position");
+        }
         present.push_back("position");
     }
     if (radius) {
-        ev.radius = *radius;
+        ev.radius = actionNumber(*radius, "radius");
         present.push_back("radius");
     }
     if (amount) {
-        ev.amount = *amount;
+        ev.amount = actionNumber(*amount, "amount");
         present.push_back("amount");
     }
     if (action == "set") {
         throw ScenarioError("apply", 0, 0, "a set takes KEY=VALUE: call set(\"" + entity + ".KEY=VALUE\")");
     }
-    if (auto problem = resolveEvent(m->sim->catalog(), m->sim->world(), ev, present)) {
+    if (auto problem = resolveEvent(s.sim->catalog(), s.sim->world(), ev, present)) {
         throw ScenarioError("apply", 0, 0, *problem);
     }
-    m->sim->addEvents({ev});
+    s.sim->addEvents({ev});
 }
 
 void Sandbox::set(const std::string& keyValue) {
+    State& s = live();
     EventDef ev;
-    ev.step = m->sim->step();
+    ev.step = s.sim->step();
     ev.action = "set";
     ev.set = keyValue;
-    std::vector<EventDef> events = m->sim->pendingEvents();
+    std::vector<EventDef> events = s.sim->pendingEvents();
     events.push_back(ev);
-    if (auto problem = m->sim->checkSetEvents(events)) {
+    if (auto problem = s.sim->checkSetEvents(events)) {
         throw ScenarioError("set", 0, 0, *problem);
     }
-    m->sim->addEvents({ev});
+    s.sim->addEvents({ev});
 }
 
 std::uint64_t Sandbox::hash() const {
-    return m->sim->hash();
+    return live().sim->hash();
 }
 
 std::string Sandbox::dump() const {
     std::string line;
-    m->sim->appendDump(line);
+    live().sim->appendDump(line);
     while (!line.empty() && line.back() == '\n') {
         line.pop_back();
     }
@@ -230,25 +282,34 @@ std::string Sandbox::dump() const {
 }
 
 std::string Sandbox::profile() const {
-    return budgetSummaryJson(m->sim->profiler(), m->sim->scene(), m->sim->frame(), m->sim->threads());
+    Simulation& sim = *live().sim;
+    return budgetSummaryJson(sim.profiler(), sim.scene(), sim.frame(), sim.threads());
 }
 
 std::vector<std::string> Sandbox::failures() const {
-    return m->sim->world().resource<RunReport>().failures;
+    return live().sim->world().resource<RunReport>().failures;
 }
 
 void Sandbox::record(const std::string& path) {
-    if (m->sim->frame() > 0) {
+    State& s = live();
+    if (s.sim->frame() > 0) {
         throw ScenarioError(path, 0, 0, "record before the first step: a replay starts at frame 0");
     }
-    m->recorder = std::make_unique<ReplayWriter>(
-        path, ReplayHeader{kReplayVersion, buildId(), m->path, m->text, m->sets});
+    if (s.recorder) {
+        throw ScenarioError(path, 0, 0,
+                            "a replay is already being recorded here (" + s.recordingTo +
+                                "): finish it first (finishRecording(); finish_recording() in Python)");
+    }
+    s.recorder =
+        std::make_unique<ReplayWriter>(path, ReplayHeader{kReplayVersion, buildId(), s.path, s.text, s.sets});
+    s.recordingTo = path;
 }
 
 void Sandbox::finishRecording() {
-    if (m->recorder) {
-        m->recorder->finish();
-        m->recorder.reset();
+    State& s = live();
+    if (s.recorder) {
+        std::unique_ptr<ReplayWriter> recorder = std::move(s.recorder);
+        recorder->finish();
     }
 }
 
@@ -260,11 +321,12 @@ std::string verifyReplay(const std::string& path, int threads) {
     o.quiet = true;
     o.profile = "/dev/null"; // a run writes its budget summary somewhere: here nowhere
     std::string diverged;
-    Source src = replaySource(path, true, threads > 0 ? threads : defaultThreadCount());
+    Source src = replaySource(path, true, threadCount(threads));
     src.diverged = &diverged;
     const int code = runSession(builtinCatalog(), o, src);
-    if (diverged.empty() && code != 0) {
-        // not a divergence, but not every frame checked either (a failure or an interrupt stopped it)
+    if (diverged.empty() && code != kExitOk && code != kExitFailure) {
+        // not a divergence, but not every frame checked either (an interrupt stopped it); a failure (a
+        // blow-up) does not stop a run, and the recording met it too
         diverged = "the replay's run stopped before its end (exit code " + std::to_string(code) + ")";
     }
     return diverged;

@@ -22,13 +22,15 @@
 
 namespace tumble {
 
-/// One scenario in one world; see the header comment. Not copyable; movable. One thread at a time: a
-/// Sandbox is not locked (its steps use the worker threads it was given).
+/// One scenario in one world; see the header comment. Not copyable; movable (a moved-from Sandbox throws
+/// std::logic_error from every call). One thread at a time: a Sandbox is not locked (its steps use the
+/// worker threads it was given; the Python module locks each Sandbox itself).
 class Sandbox {
 public:
     /// Loads a demo (by name) or a scenario file, with `--set` overrides ("KEY=VALUE"), stepping on
-    /// `threads` threads (0: $TUMBLE_THREADS, else every hardware thread). Throws ScenarioError with the
-    /// command line's message for bad input.
+    /// `threads` threads (0: $TUMBLE_THREADS, else every hardware thread; else 1 to 256). Throws
+    /// ScenarioError with the command line's message for bad input, std::invalid_argument for a thread
+    /// count out of range.
     explicit Sandbox(const std::string& scenario, const std::vector<std::string>& sets = {}, int threads = 0);
     ~Sandbox();
     Sandbox(Sandbox&&) noexcept;
@@ -38,15 +40,15 @@ public:
 
     /// Runs `frames` frames (each the scene's `substeps` fixed steps), applying the scenario's events and
     /// those given to apply() as they fall due. Problems met on the way (a network that blew up) are in
-    /// failures(), as the command line would print them.
+    /// failures(), as the command line would print them. Throws std::invalid_argument if frames < 0.
     void step(int frames = 1);
 
     std::uint64_t frame() const; ///< frames run
     double time() const;         ///< simulated time, s
     double dt() const;           ///< the fixed step, s
 
-    /// Every named entity and its kind as the dump names it ("springs", "particles", "rigid", "rigid2d",
-    /// "water", "air", "fem", ...; kinds of several components '+'-joined).
+    /// Every named entity whose state the dump lists, and its kind as the dump names it ("springs",
+    /// "particles", "rigid", "rigid2d", "water", "air", "fem", ...; kinds of several components '+'-joined).
     std::map<std::string, std::string> entities() const;
 
     /// An entity's positions and velocities as the dump lists them (a mass, node, particle or body per
@@ -59,7 +61,8 @@ public:
     /// Applies one of the scenario's actions (as an [[event]] or a line of --input) at the start of the
     /// next step: impulse, set_velocity, push, disturb, emit, ... `value` is the action's number(s),
     /// `position` (and `radius`, `amount`) as the action takes them. Throws ScenarioError when the entity,
-    /// the action or its values do not fit, with the message an [[event]] would get.
+    /// the action or its values do not fit, with the message an [[event]] would get (every number finite
+    /// and within +-1e9, at most 4096 of them in `value`, as --input takes them).
     void apply(const std::string& entity, const std::string& action, const std::vector<double>& value = {},
                std::optional<std::array<double, 3>> position = std::nullopt,
                std::optional<double> radius = std::nullopt, std::optional<double> amount = std::nullopt);
@@ -77,20 +80,23 @@ public:
 
     /// Records a replay to `path` from here on: only before the first step (a replay starts at frame 0).
     /// Every step() after writes its frames; the file is finished when the Sandbox is destroyed or
-    /// finishRecording() is called. Throws ScenarioError if steps have run, std::runtime_error if the file
-    /// cannot be written.
+    /// finishRecording() is called. Throws ScenarioError if steps have run or a recording is already under
+    /// way (finish it first), std::runtime_error if the file cannot be written.
     void record(const std::string& path);
     void finishRecording();
 
 private:
     struct State;
     std::unique_ptr<State> m;
+    State& live() const; ///< *m, or std::logic_error for a moved-from Sandbox
 };
 
 /// Replays a replay file and compares every frame's state hash with the recording, as `tumble replay FILE
 /// --verify` does: returns an empty string when every frame matches, else what diverged first (frame,
 /// entity, kind of state; or that its run stopped early), printing no verdict. Throws ReplayError for a
-/// file that cannot be read. Runs on `threads` threads.
+/// file that cannot be read, std::invalid_argument for `threads` out of range. Runs on `threads` threads
+/// (0 as for Sandbox). A failure the recording met too (a blow-up) is not a divergence; an interrupt
+/// (SIGINT or SIGTERM, whose handlers are put back after) is, as "stopped before its end".
 std::string verifyReplay(const std::string& path, int threads = 0);
 
 } // namespace tumble

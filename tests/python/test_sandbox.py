@@ -170,3 +170,120 @@ def test_record_after_stepping_is_refused():
     sim.step(1)
     with pytest.raises(tumble.ScenarioError, match="before the first step"):
         sim.record("/tmp/never.tumble")
+
+
+def test_two_threads_sharing_one_sandbox_take_turns():
+    # step() runs without the GIL: before each Sandbox had a lock, a read during a step corrupted the heap
+    # (malloc abort) and two threads stepping at once crashed
+    import threading
+    sim = tumble.Sandbox("fountain", threads=1)
+    errors = []
+
+    def steps():
+        try:
+            for _ in range(40):
+                sim.step(2)
+        except Exception as e:  # pragma: no cover - reported below
+            errors.append(e)
+
+    workers = [threading.Thread(target=steps) for _ in range(2)]
+    for w in workers:
+        w.start()
+    while any(w.is_alive() for w in workers):
+        assert sim.x("jet").shape[1] == 3
+    for w in workers:
+        w.join()
+    assert not errors and sim.frame == 160
+
+
+def test_verify_puts_back_the_callers_signal_handlers(tmp_path):
+    # it took SIGINT and SIGTERM for its run and left them at the default: Ctrl-C then killed Python
+    import signal
+    path = str(tmp_path / "r.tumble")
+    sim = tumble.Sandbox("rope", threads=1)
+    sim.record(path)
+    sim.step(3)
+    sim.finish_recording()
+
+    def mine(signum, frame):  # pragma: no cover - never called
+        pass
+
+    before = signal.signal(signal.SIGTERM, mine)
+    try:
+        assert tumble.verify(path, threads=1) is True
+        assert signal.getsignal(signal.SIGTERM) is mine
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGTERM, before)
+
+
+@pytest.mark.parametrize("kwargs", [
+    dict(value=[float("nan"), 0.0, 0.0]),
+    dict(value=[float("inf"), 0.0, 0.0]),
+    dict(value=[1e12, 0.0, 0.0]),
+    dict(value=[0.0] * 4097),
+    dict(value=[0.0, 0.0, 1.0], position=[0.0, float("nan"), 0.0]),
+])
+def test_apply_refuses_what_a_replay_cannot_hold(rope, kwargs):
+    # accepted before, the NaN made the rope NaN, and a replay holding 1e12 could not be read back
+    with pytest.raises(tumble.ScenarioError, match="finite number within|too many numbers"):
+        rope.apply("chain", "impulse", **kwargs)
+
+
+def test_disturb_refuses_a_non_finite_radius_or_amount():
+    pond = tumble.Sandbox("pond", threads=1)
+    for kwargs in (dict(radius=float("inf"), amount=0.1), dict(radius=0.5, amount=float("nan"))):
+        with pytest.raises(tumble.ScenarioError, match="finite number within"):
+            pond.apply("pond", "disturb", position=[0.0, 0.0, 0.0], **kwargs)
+
+
+def test_a_run_that_blew_up_as_recorded_verifies(tmp_path, capfd):
+    # a failure the recording met too is not a divergence (verify raised "stopped before its end" and
+    # printed the blow-up on stderr)
+    path = str(tmp_path / "r.tumble")
+    sim = tumble.Sandbox("rope", set=["chain.rope.integrator=symplectic_euler", "chain.rope.stiffness=1e9"],
+                         threads=1)
+    sim.record(path)
+    sim.step(5)
+    sim.finish_recording()
+    assert sim.failures(), "the stiff rope should blow up under symplectic Euler"
+    capfd.readouterr()
+    assert tumble.verify(path, threads=1) is True
+    assert capfd.readouterr().err == ""
+
+
+def test_a_second_recording_is_refused_and_the_first_kept(tmp_path):
+    sim = tumble.Sandbox("rope", threads=1)
+    sim.record(str(tmp_path / "a.tumble"))
+    with pytest.raises(tumble.ScenarioError, match="already being recorded"):
+        sim.record(str(tmp_path / "b.tumble"))
+    sim.step(4)
+    sim.finish_recording()
+    assert tumble.verify(str(tmp_path / "a.tumble"), threads=1) is True
+
+
+@pytest.mark.parametrize("threads", [0, -5, 100000])
+def test_verify_refuses_a_thread_count_out_of_range(tmp_path, threads):
+    with pytest.raises(ValueError, match="threads"):
+        tumble.verify(str(tmp_path / "none.tumble"), threads=threads)
+
+
+def test_scenario_errors_carry_file_line_and_column(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[scene]\nname = "bad"\ndt = -1.0\n')
+    with pytest.raises(tumble.ScenarioError) as caught:
+        tumble.Sandbox(bad)  # a pathlib.Path is taken too
+    e = caught.value
+    assert e.file == str(bad) and e.line == 3 and e.column > 0 and "dt" in e.message
+    assert str(e).startswith(f"{bad}:3:")
+    assert tumble.ScenarioError.__doc__ and tumble.ReplayError.__doc__
+
+
+def test_a_sandbox_never_initialised_raises_rather_than_crashes():
+    with pytest.raises((TypeError, RuntimeError)):
+        tumble.Sandbox.__new__(tumble.Sandbox).frame
+
+
+def test_an_entity_without_state_is_named_as_such():
+    with pytest.raises(tumble.ScenarioError, match="'wind' has no state the dump lists"):
+        tumble.Sandbox("curtain", threads=1).x("wind")
