@@ -61,6 +61,15 @@ struct SpringAnchor {
     Vec3 local;             ///< the point that holds it, in the body's frame (2D: x, y; z off its plane)
 };
 
+/// A node of an fem body the last collision pass pushed out of a static body: that surface's outward normal
+/// there and the friction of the pair (systems/collision_system.h). Implicit Euler holds the node's motion
+/// into the surface inside its solve (systems/resting_contacts.h).
+struct RestingContact {
+    std::uint32_t mass = 0;
+    Vec3 normal;
+    double friction = 0.0;
+};
+
 /// The state and model of a spring network; every per-mass array has one entry per mass.
 struct SpringNetwork {
     // state, advanced by the spring system
@@ -87,6 +96,10 @@ struct SpringNetwork {
     std::array<std::uint32_t, 3> grid{0, 0, 0};          ///< cloth: rows, cols; softbody: nx, ny, nz
     std::vector<std::array<std::uint32_t, 3>> triangles; ///< surface triangles (cloth), counter-clockwise
     FemElements fem;                                     ///< kind Fem: the elements
+
+    // set by the collision pass with bodies, read by implicit Euler's next step (derived from x and v: not
+    // hashed, the same on every run that reaches the same state)
+    std::vector<RestingContact> resting;
 
     // set when the network blew up: it is no longer advanced
     bool frozen = false;

@@ -1085,11 +1085,23 @@ void confineVorticity(Air& air, double dt, WorkerPool& pool) {
     addFaceMeans(air, cv, float(0.5 * dt), pool);
 }
 
+} // namespace
+
+int airViscositySubsteps(const Air& air, double dt) {
+    const double needed = std::ceil(air.viscosity * dt / (air.cell * air.cell) * 6.0);
+    return needed <= 1.0                             ? 1
+           : needed > double(kMostViscositySubsteps) ? kMostViscositySubsteps + 1
+                                                     : int(needed);
+}
+
+namespace {
+
 /// Viscosity, explicit: each velocity component diffused by nu dt Lap on its own lattice (a neighbour past
-/// the lattice's end reads as the point itself), in as many substeps as nu h / dx^2 <= 1/6 needs.
+/// the lattice's end reads as the point itself), in as many substeps as nu h / dx^2 <= 1/6 needs (the load
+/// refuses more than kMostViscositySubsteps: they would take minutes a step).
 void diffuseVelocity(Air& air, double dt, WorkerPool& pool) {
     const double rate = air.viscosity * dt / (air.cell * air.cell);
-    const int substeps = std::max(1, int(std::ceil(rate * 6.0)));
+    const int substeps = std::min(airViscositySubsteps(air, dt), kMostViscositySubsteps);
     const auto c = float(rate / substeps);
     const Lattices lattices = velocityLattices(air);
     std::vector<float>* fields[3] = {&air.u, &air.v, &air.w};
@@ -1265,7 +1277,15 @@ double airDivergenceMax(const Air& air, WorkerPool& pool) {
 }
 
 void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
+    advectAir(air, dt, pool);
+    finishAirStep(air, gravity, dt, pool);
+}
+
+void advectAir(Air& air, double dt, WorkerPool& pool) {
     advect(air, dt, pool);
+}
+
+void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     if (!air.solid.empty()) {
         // nothing is carried into a body
         for (std::size_t c = 0; c < air.solid.size(); ++c) {

@@ -29,6 +29,16 @@ void initAir(Air& air);
 
 /// One step of dt (the steps above). `gravity` gives buoyancy its direction (straight down when zero).
 void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
+/// stepAir in two parts, for the sources to feed between them: step 1 (advection), then steps 2 to 5. A
+/// source fed before the advection was carried off by it: a jet faster than its nozzle's size a step left
+/// nothing behind.
+void advectAir(Air& air, double dt, WorkerPool& pool);
+void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
+
+/// The explicit viscosity's substeps a step of dt takes (kMostViscositySubsteps + 1 when it would take
+/// more than those: the load refuses such a grid).
+constexpr int kMostViscositySubsteps = 1000;
+int airViscositySubsteps(const Air& air, double dt);
 
 /// The projection alone (step 5): the velocity made divergence-free to within the tolerance.
 void projectAir(Air& air, WorkerPool& pool);

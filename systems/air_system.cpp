@@ -51,7 +51,7 @@ void readBorder(TableReader& r, Air& air) {
     s.finish();
 }
 
-void loadAir(TableReader& r, World& world, Entity entity, const SceneDef&) {
+void loadAir(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
     Air air;
     const auto cells = r.vector<3>("cells", {32.0, 32.0, 32.0}, 4.0, kMaxCellsPerSide);
     for (std::size_t a = 0; a < 3; ++a) {
@@ -81,6 +81,17 @@ void loadAir(TableReader& r, World& world, Entity entity, const SceneDef&) {
     air.heatLift = buoyancy[1];
     air.dissipation = r.number("dissipation", 0.0, 0.0, 1e4);
     air.viscosity = r.number("viscosity", 0.0, 0.0, 1e3);
+    if (airViscositySubsteps(air, scene.dt) > kMostViscositySubsteps) {
+        // explicit diffusion takes nu dt / dx^2 * 6 substeps a step: more would run for minutes a step
+        char text[300];
+        std::snprintf(
+            text, sizeof text,
+            "viscosity %g m^2/s with cells of %g m and a step of %g s needs more than %d substeps a "
+            "step (nu dt / dx^2 <= 1/6 each); at most %g m^2/s here, or a shorter step or larger cells",
+            air.viscosity, air.cell, scene.dt, kMostViscositySubsteps,
+            kMostViscositySubsteps * air.cell * air.cell / (6.0 * scene.dt));
+        r.fail("viscosity", text);
+    }
     air.maccormack =
         r.choice("advection", "semi_lagrangian", {"semi_lagrangian", "maccormack"}) == "maccormack";
     air.tolerance = r.number("tolerance", 1e-3, 1e-9, 1e3);
@@ -210,9 +221,9 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
             }
         }
     }
-    if (fed == 0) {
-        // a shape smaller than a cell: the cell it is in
-        int c[3];
+    const bool within = airContains(air, at);
+    int c[3]; // a shape smaller than a cell: the cell it is in (none when it has left the box)
+    if (fed == 0 && within) {
         const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
         for (std::size_t a = 0; a < 3; ++a) {
             c[a] = int(std::clamp(std::floor(local[a] / air.cell), 0.0, double(air.cells[a] - 1)));
@@ -223,9 +234,26 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
     if (!source.drives) {
         return;
     }
-    // the faces inside: each component on its own faces (the box's sides' faces too)
+    // the faces inside: each component on its own faces (the box's sides' faces too); a shape smaller than
+    // a cell drives the faces of the cell it is in
     std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
     const double speed[3] = {source.velocity.x, source.velocity.y, source.velocity.z};
+    if (fed == 0) {
+        if (within) {
+            for (int ax = 0; ax < 3; ++ax) {
+                std::array<int, 3> n = air.cells;
+                n[std::size_t(ax)] += 1;
+                for (int side = 0; side < 2; ++side) {
+                    std::array<int, 3> f{c[0], c[1], c[2]};
+                    f[std::size_t(ax)] += side;
+                    (*faces[ax])[std::size_t(f[0]) +
+                                 std::size_t(n[0]) * (std::size_t(f[1]) + std::size_t(n[1]) * f[2])] =
+                        float(speed[ax]);
+                }
+            }
+        }
+        return;
+    }
     for (int a = 0; a < 3; ++a) {
         std::array<int, 3> n = air.cells;
         n[std::size_t(a)] += 1;
@@ -348,22 +376,25 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
 void advanceAir(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Vec3 gravity{g[0], g[1], g[2]};
-    {
-        ProfileStage stage(ctx.profiler, "air.sources");
-        world.view<const Transform, const AirSource>().each(
-            [&](Entity, const Transform& t, const AirSource& s) {
-                feedAir(world.get<Air>(s.air), s, t.position, ctx.dt);
-            });
-    }
     std::vector<const RigidBody*> bodies;
     world.view<const RigidBody>().each([&](Entity, const RigidBody& b) { bodies.push_back(&b); });
-    world.view<Air>().each([&](Entity, Air& air) {
+    world.view<Air>().each([&](Entity grid, Air& air) {
         {
             ProfileStage stage(ctx.profiler, "air.bodies");
             voxeliseBodies(air, bodies);
         }
-        ProfileStage stage(ctx.profiler, "air.step");
-        stepAir(air, gravity, ctx.dt, poolOr(ctx.pool));
+        std::optional<ProfileStage> stage(std::in_place, ctx.profiler, "air.step");
+        advectAir(air, ctx.dt, poolOr(ctx.pool));
+        // the sources after the advection (air_solver.h), in the order they were loaded
+        stage.emplace(ctx.profiler, "air.sources");
+        world.view<const Transform, const AirSource>().each(
+            [&](Entity, const Transform& t, const AirSource& s) {
+                if (s.air == grid) {
+                    feedAir(air, s, t.position, ctx.dt);
+                }
+            });
+        stage.emplace(ctx.profiler, "air.step");
+        finishAirStep(air, gravity, ctx.dt, poolOr(ctx.pool));
     });
 }
 

@@ -551,6 +551,9 @@ void springsAgainst(World& world, std::vector<RigidBody>& bodies, bool respond) 
         if (net.frozen) {
             return;
         }
+        if (respond) {
+            net.resting.clear();
+        }
         for (std::size_t i = 0; i < net.x.size(); ++i) {
             if (net.pinned[i]) {
                 continue;
@@ -575,13 +578,16 @@ void springsAgainst(World& world, std::vector<RigidBody>& bodies, bool respond) 
                     const Vec3 surface = body.dynamic() ? body.velocityAt(net.x[i]) : Vec3{};
                     const Vec3 relative = net.v[i] - surface;
                     const double vn = dot(relative, n);
+                    const double mu =
+                        std::sqrt(body.friction * net.friction); // combined as Box2D and our Bullet do
+                    if (respond && !body.dynamic() && net.kind == NetworkKind::Fem) {
+                        net.resting.push_back({std::uint32_t(i), n, mu});
+                    }
                     if (!respond || vn >= 0.0) {
                         continue; // already leaving the surface
                     }
                     // the velocity into the surface stops (or bounces by restitution); sliding loses to
                     // friction
-                    const double mu =
-                        std::sqrt(body.friction * net.friction); // combined as Box2D and our Bullet do
                     Vec3 vt = relative - n * vn;
                     const double speed = length(vt);
                     const double slowdown = mu * -vn;

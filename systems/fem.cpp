@@ -2,6 +2,7 @@
 
 #include "engine/parallel.h"
 #include "engine/profiler.h"
+#include "systems/resting_contacts.h"
 
 #include <Eigen/Dense>
 
@@ -565,6 +566,21 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
             }
         }
     });
+    // resting contacts held in the solve (spring_integrators.h)
+    s.restingWeights.resize(net.resting.size());
+    for (std::size_t k = 0; k < net.resting.size(); ++k) {
+        const RestingContact& contact = net.resting[k];
+        if (contact.mass < n) {
+            Mat3T<float>& block = a.val[a.diag[contact.mass]];
+            Mat3 sum;
+            for (std::size_t e = 0; e < 9; ++e) {
+                sum.m[e] = double(block.m[e]);
+            }
+            s.restingWeights[k] = restingWeight(sum);
+            sum += restingBlock(contact.normal, s.restingWeights[k]);
+            block = sum.cast<float>();
+        }
+    }
     for (std::uint32_t block : s.pinnedBlocks) {
         a.val[block] = Mat3T<float>{};
     }
@@ -581,6 +597,7 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
     s.multigrid.update(a, pool);
     const SolveStats stats = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
                                       net.cgMaxIterations, s.pcg, pool);
+    restingFriction(net, s.restingWeights, s.dv);
     for (std::size_t i = 0; i < n; ++i) {
         if (!net.pinned[i]) {
             net.v[i] += s.dv[i].toVec3();
