@@ -566,21 +566,7 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
             }
         }
     });
-    // resting contacts held in the solve (spring_integrators.h)
-    s.restingWeights.resize(net.resting.size());
-    for (std::size_t k = 0; k < net.resting.size(); ++k) {
-        const RestingContact& contact = net.resting[k];
-        if (contact.mass < n) {
-            Mat3T<float>& block = a.val[a.diag[contact.mass]];
-            Mat3 sum;
-            for (std::size_t e = 0; e < 9; ++e) {
-                sum.m[e] = double(block.m[e]);
-            }
-            s.restingWeights[k] = restingWeight(sum);
-            sum += restingBlock(contact.normal, s.restingWeights[k]);
-            block = sum.cast<float>();
-        }
-    }
+    holdResting(net, a, s.restingWeights, s.restingBlocks); // systems/resting_contacts.h
     for (std::uint32_t block : s.pinnedBlocks) {
         a.val[block] = Mat3T<float>{};
     }
@@ -595,8 +581,16 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
     }
     stage.emplace(env.profiler, "fem.solve");
     s.multigrid.update(a, pool);
-    const SolveStats stats = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
-                                      net.cgMaxIterations, s.pcg, pool);
+    SolveStats stats = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
+                                net.cgMaxIterations, s.pcg, pool);
+    if (releasePulling(net, a, s.dv, s.restingWeights, s.restingBlocks)) {
+        // again without the contacts that held a leaving node (the preconditioner as it was: still SPD)
+        const SolveStats again = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
+                                          net.cgMaxIterations, s.pcg, pool);
+        stats.iterations += again.iterations;
+        stats.relativeResidual = again.relativeResidual;
+        stats.converged = again.converged;
+    }
     restingFriction(net, s.restingWeights, s.dv);
     for (std::size_t i = 0; i < n; ++i) {
         if (!net.pinned[i]) {

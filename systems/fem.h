@@ -91,7 +91,8 @@ struct FemSolver {
     std::vector<Vec3T<float>> rhsFloat, dv; ///< dv: the last step's velocity change (the warm start)
     std::vector<std::uint32_t> pinnedBlocks;
     std::vector<std::uint8_t> pinnedWhenBuilt;
-    std::vector<double> restingWeights; ///< per resting contact, this step's c (spring_integrators.h)
+    std::vector<double> restingWeights;      ///< per resting contact, this step's c (resting_contacts.h)
+    std::vector<Mat3T<float>> restingBlocks; ///< per resting contact, its node's block before it
     AggregationMultigrid<float> multigrid;
     PcgVectors<float> pcg;
     // what implicit Euler's assembly keeps of each element between its two passes

@@ -5,11 +5,12 @@
 // fall, which grows with h^2 K / m (an fem block's bottom layer was crushed flat at 1/60 s; its resting shape
 // depended on the step). Each resting node's diagonal block gains c n n^T, c = kRestingStiffness times the
 // block's mean diagonal: its speed into the surface changes by about a thousandth of what the forces would
-// give it (the pass takes that out), and its speed away from it is held for that one step (the next step it
-// is free, as the pass no longer finds it inside). The surface's impulse, -c (n . dv), is what friction then
-// works with: the sliding speed loses at most friction times it over the mass, as in the pass. Only static
-// bodies (a moving one would need the impulse handed to it) and only fem bodies (spring networks, cloth above
-// all, have not been moved to it: their contact tests ran slower and some failed with it; a next step).
+// give it (the pass takes that out). A contact that held its node from leaving the surface (the solve's n .
+// dv > 0: the surface pulled) lets go and the system is solved again without it, so that a body rolls and
+// lifts off freely. The surface's impulse, -c (n . dv), is what friction then works with: the sliding speed
+// loses at most friction times it over the mass, as in the pass. Only static bodies (a moving one would need
+// the impulse handed to it) and only fem bodies (spring networks, cloth above all, have not been moved to it:
+// their contact tests ran slower and some failed with it; a next step).
 
 #include "components/spring_network.h"
 #include "systems/block_sparse.h"
@@ -22,22 +23,17 @@ namespace tumble {
 
 constexpr double kRestingStiffness = 1e3;
 
-/// c for a mass's diagonal block (its mean diagonal entry times kRestingStiffness).
-inline double restingWeight(const Mat3& block) {
-    return kRestingStiffness * (block.m[0] + block.m[4] + block.m[8]) / 3.0;
-}
+/// Adds each resting contact's c n n^T to its node's diagonal block of `a` (c into weights[k]), keeping
+/// every block it changes as it was in `saved` (per contact).
+void holdResting(const SpringNetwork& net, BlockMatrix<float>& a, std::vector<double>& weights,
+                 std::vector<Mat3T<float>>& saved);
 
-/// c n n^T.
-inline Mat3 restingBlock(const Vec3& n, double c) {
-    Mat3 b;
-    const double u[3] = {n.x, n.y, n.z};
-    for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) {
-            b.m[std::size_t(3 * r + k)] = c * u[r] * u[k];
-        }
-    }
-    return b;
-}
+/// After a solve (dv): a contact whose surface pulled its node (the node was leaving it: -c (n . dv) < 0)
+/// lets go, its weight zero and its node's block as it was with the node's other contacts only. True if
+/// any let go: the caller solves again, so that a body can roll or lift off (held for that step, a rolling
+/// ball's rear nodes braked it to a stop on a step's edge).
+bool releasePulling(const SpringNetwork& net, BlockMatrix<float>& a, const std::vector<Vec3T<float>>& dv,
+                    std::vector<double>& weights, const std::vector<Mat3T<float>>& saved);
 
 /// After the solve, friction on each resting mass's step (dv, solved with weights[k] for contact k): its
 /// sliding speed after the step slowed by at most friction times the surface's impulse over the mass.
