@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <sys/stat.h>
 #include <vector>
@@ -314,6 +315,7 @@ std::vector<std::pair<const ComponentLoader*, const toml::table*>>
 componentTables(const toml::table& table, const std::string& where, const LoadContext& ctx,
                 const Catalog& catalog, TableReader& e) {
     std::vector<std::pair<const ComponentLoader*, const toml::table*>> components;
+    std::string body; // the entity's body component, once met
     for (auto&& [k, v] : table) {
         const std::string key(k.str());
         if (key == "name" || key == "transform" || key == "repeat" || key == "scatter") {
@@ -337,6 +339,19 @@ componentTables(const toml::table& table, const std::string& where, const LoadCo
         }
         e.has(key);
         components.emplace_back(loader, v.as_table());
+        // an entity is one body: a second would be loaded and then lost (the dump and the hash take the
+        // first), or a --set of a table the entity does not have would put one beside its own
+        static const std::set<std::string, std::less<>> bodies = {
+            "springs", "rope", "cloth", "softbody", "fem", "rigid_body", "rigid_body_2d", "water", "air"};
+        if (bodies.count(key) != 0) {
+            if (!body.empty()) {
+                ctx.fail(
+                    &v,
+                    where + ": '" + body + "' and '" + key +
+                        "' are two bodies; an entity is one body (give the other an [[entity]] of its own)");
+            }
+            body = key;
+        }
     }
     return components;
 }

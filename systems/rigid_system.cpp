@@ -73,9 +73,6 @@ Vec3 vec(const std::array<double, 3>& a) {
 }
 
 void loadRigidBody(TableReader& r, World& world, Entity entity, const SceneDef&) {
-    if (world.has<RigidBody2D>(entity)) {
-        r.fail("shape", "an entity is a rigid_body (3D) or a rigid_body_2d, not both");
-    }
     r.charge("shape", kBodyBytes, r.where());
     RigidBody b;
     const std::string shape =
@@ -189,9 +186,6 @@ std::vector<Vec2> readPolygon(TableReader& r) {
 
 void loadRigidBody2D(TableReader& r, World& world, Entity entity, const SceneDef&) {
     r.charge("shape", kBodyBytes, r.where());
-    if (world.has<RigidBody>(entity)) {
-        r.fail("shape", "an entity is a rigid_body (3D) or a rigid_body_2d, not both");
-    }
     RigidBody2D b;
     const std::string shape = r.choice("shape", "box", {"box", "circle", "polygon", "edge"});
     b.shape = shape == "box"       ? Shape2DKind::Box
