@@ -253,6 +253,11 @@ void addMemoryCapOption(CLI::App* cmd, RunOptions& o) {
         ->type_name("MIB");
 }
 
+/// A path option given as "" would mean its default without a word: refused.
+const CLI::Validator nonEmpty(
+    [](const std::string& value) { return value.empty() ? std::string("must not be empty") : std::string(); },
+    "", "not empty");
+
 void addThreadsOption(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("--threads", o.threads,
                     "Threads the physics runs on (default: $TUMBLE_THREADS, else every hardware thread); any "
@@ -280,7 +285,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
         cmd->add_option("--frames", o.frames,
                         "How many frames to run (default: the scene's frames; a replay's own)")
             ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
-        cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)");
+        cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)")->check(nonEmpty);
         cmd->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
         cmd->add_option("--video", o.video,
                         "Encode the rendered frames to FILE (.mp4 or .gif) through ffmpeg")
@@ -391,7 +396,8 @@ void addSweepVerb(CLI::App& app, SweepOptions& o) {
         ->type_name("FILE");
     cmd->add_option("--out", o.out,
                     "The sweep's folder (default out/<sweep file name>/); for --slurm, on "
-                    "storage every node sees");
+                    "storage every node sees")
+        ->check(nonEmpty);
     cmd->add_flag("--local", o.local,
                   "Run the cases here, -j at a time; a sweep started again skips the "
                   "cases that ended");

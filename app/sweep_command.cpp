@@ -114,9 +114,20 @@ private:
 };
 
 std::pair<std::size_t, std::size_t> parseShard(const std::string& text) {
+    // digits only: sscanf's %llu takes a sign ('1/-3' read as shard 1 of 2^64 - 3) and leading blanks
+    const std::size_t slash = text.find('/');
+    const auto digits = [](const std::string& part) {
+        return !part.empty() && part.size() <= 18 &&
+               part.find_first_not_of("0123456789") == std::string::npos;
+    };
     unsigned long long i = 0, n = 0;
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%llu/%llu%c", &i, &n, &tail) != 2 || n == 0 || i >= n) {
+    const bool form =
+        slash != std::string::npos && digits(text.substr(0, slash)) && digits(text.substr(slash + 1));
+    if (form) {
+        i = std::stoull(text.substr(0, slash));
+        n = std::stoull(text.substr(slash + 1));
+    }
+    if (!form || n == 0 || i >= n) {
         throw ScenarioError("--shard", 0, 0,
                             "'" + text + "' is not a shard: I/N with 0 <= I < N (task I of N, from 0)");
     }
@@ -234,20 +245,21 @@ void checkModes(const SweepOptions& o) {
                       int(!o.plot.empty());
     if (modes != 1) {
         throw ScenarioError(
-            "tumble sweep", 0, 0,
+            "sweep", 0, 0,
             std::string(modes ? "give only one of" : "say how to run the sweep:") +
                 " --local (on this machine), --slurm (as a Slurm job array), --shard I/N (one "
                 "task's share), --merge, --status or --plot METRIC");
     }
     auto refuse = [](bool given, const char* option, const char* mode) {
         if (given) {
-            throw ScenarioError("tumble sweep", 0, 0, std::string(option) + " goes with " + mode);
+            throw ScenarioError("sweep", 0, 0, std::string(option) + " goes with " + mode);
         }
     };
     refuse(!o.by.empty() && o.plot.empty(), "--by AXIS", "--plot METRIC");
     refuse(!o.slurm && (!o.partition.empty() || o.maxParallel > 0 || o.tasks > 0 || o.noWait),
            "--partition, --max-parallel, --tasks and --no-wait", "--slurm");
     refuse(o.jobs > 0 && !o.local && o.shard.empty(), "-j", "--local or --shard");
+    refuse(o.threads && (o.merge || o.status || !o.plot.empty()), "--threads", "--local, --slurm or --shard");
 }
 
 } // namespace

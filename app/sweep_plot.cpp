@@ -43,7 +43,9 @@ std::size_t findColumn(const std::vector<std::string>& names, const std::string&
         throw ScenarioError(
             file, 0, 0,
             "no " + what + " '" + name + "'" +
-                (near.empty() ? "; the " + what + "s are " + list : " (did you mean '" + near + "'?)"));
+                (near.empty()
+                     ? "; the " + (what == "axis" ? std::string("axes") : what + "s") + " are " + list
+                     : " (did you mean '" + near + "'?)"));
     }
     return std::size_t(it - names.begin());
 }

@@ -121,6 +121,14 @@ RunOutcome collectRun(const std::string& out, const CaseRun& run, int waitStatus
     o.wallSeconds = std::chrono::duration<double>(SteadyClock::now() - run.start).count();
     o.timedOut = run.timedOut;
     readLog(folder + "/log" + suffix + ".txt", o);
+    if (WIFSIGNALED(waitStatus) && !o.timedOut) {
+        // a process killed by a signal writes nothing of it: say which
+        const int sig = WTERMSIG(waitStatus);
+        const char* name = ::sigabbrev_np(sig);
+        o.detail = "killed by signal " + std::to_string(sig) +
+                   (name ? std::string(" (SIG") + name + ")" : "") +
+                   (o.detail.empty() ? "" : "; the log's last line: " + o.detail);
+    }
     std::ifstream profile(folder + "/profile" + suffix + ".json");
     const json p = json::parse(profile, nullptr, false);
     if (!p.is_discarded() && p.contains("frame")) {

@@ -504,6 +504,18 @@ TEST(SweepLocal, ShardsRunTheirShareAndMergeMakesTheTable) {
     ASSERT_EQ(runTumble({"sweep", file, "--merge", "--out", sharded}).exitCode, 0);
     EXPECT_EQ(untimed(readCsv(sharded + "/results.csv")), untimed(readCsv(whole + "/results.csv")));
     EXPECT_EQ(runTumble({"sweep", file, "--shard", "3/3", "--out", sharded}).exitCode, 2);
+    // sscanf read '1/-3' as shard 1 of 2^64 - 3 (case 1 alone, exit 0) and took leading blanks
+    for (const char* bad : {"1/-3", " 1/3", "1/3x", "+1/3", "1/ 3"}) {
+        const auto r = runTumble({"sweep", file, "--shard", bad, "--out", sharded});
+        EXPECT_EQ(r.exitCode, 2) << bad;
+        EXPECT_NE(r.err.find("is not a shard"), std::string::npos) << bad << ": " << r.err;
+    }
+    // an option of another mode, and an empty --out, were taken without a word
+    EXPECT_NE(runTumble({"sweep", file, "--merge", "--threads", "2", "--out", sharded})
+                  .err.find("--threads goes with --local, --slurm or --shard"),
+              std::string::npos);
+    EXPECT_EQ(runTumble({"sweep", file, "--status", "--threads", "3", "--out", sharded}).exitCode, 2);
+    EXPECT_EQ(runTumble({"sweep", file, "--local", "--out", ""}).exitCode, 2);
 }
 
 TEST(SweepLocal, PlotDrawsEachCaseAndTheBudgetForTimes) {
