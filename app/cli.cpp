@@ -115,7 +115,15 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
         std::fprintf(stderr, "tumble: note: recorded by build %s, replayed by build %s\n",
                      replay.header.buildId.c_str(), buildId());
     }
-    return runSession(catalog, o, src);
+    const int code = runSession(catalog, o, src);
+    if (!replay.complete && code == kExitOk) {
+        // played as far as it goes, but a file cut short is bad input (CONTRACT.md, "Replays"): a script must
+        // not take a replay that stopped at frame 8 of 40 for a whole one
+        std::fprintf(stderr, "tumble: %s: at byte %llu: the file ends there, cut short (exit 2)\n",
+                     o.scenario.c_str(), static_cast<unsigned long long>(replay.validBytes));
+        return kExitBadInput;
+    }
+    return code;
 }
 
 /// An SVG chart of physics time per frame, with the budget (and the budget times the scale) as lines.

@@ -323,11 +323,17 @@ std::string verifyReplay(const std::string& path, int threads) {
     std::string diverged;
     Source src = replaySource(path, true, threadCount(threads));
     src.diverged = &diverged;
+    const bool complete = src.replay->complete;
+    const std::uint64_t validBytes = src.replay->validBytes;
     const int code = runSession(builtinCatalog(), o, src);
     if (diverged.empty() && code != kExitOk && code != kExitFailure) {
         // not a divergence, but not every frame checked either (an interrupt stopped it); a failure (a
         // blow-up) does not stop a run, and the recording met it too
         diverged = "the replay's run stopped before its end (exit code " + std::to_string(code) + ")";
+    }
+    if (diverged.empty() && !complete) {
+        diverged = "the replay is cut short at byte " + std::to_string(validBytes) +
+                   " (a recording that was stopped): the frames it holds match, the rest are not in it";
     }
     return diverged;
 }

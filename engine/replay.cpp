@@ -176,7 +176,14 @@ ReplayWriter::ReplayWriter(const std::string& path, const ReplayHeader& header) 
     }
     std::string payload;
     putString(payload, header.buildId);
-    putString(payload, header.scenarioPath);
+    // a scenario file's path made absolute: what it names beside itself (a mesh) is found from any folder
+    // the replay is played in (as typed, 'boat.toml' was looked for in the player's folder)
+    std::string scenario = header.scenarioPath;
+    std::error_code ec;
+    if (!scenario.empty() && std::filesystem::is_regular_file(scenario, ec)) {
+        scenario = std::filesystem::absolute(scenario, ec).lexically_normal().string();
+    }
+    putString(payload, ec ? header.scenarioPath : scenario);
     putString(payload, header.scenarioText);
     put(payload, static_cast<std::uint32_t>(header.overrides.size()));
     for (const std::string& o : header.overrides) {

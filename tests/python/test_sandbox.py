@@ -287,3 +287,16 @@ def test_a_sandbox_never_initialised_raises_rather_than_crashes():
 def test_an_entity_without_state_is_named_as_such():
     with pytest.raises(tumble.ScenarioError, match="'wind' has no state the dump lists"):
         tumble.Sandbox("curtain", threads=1).x("wind")
+
+
+def test_verify_of_a_replay_cut_short_raises(tmp_path):
+    # it returned True for the frames the file held: 0 of them, for a file cut after its header
+    path = tmp_path / "r.tumble"
+    sim = tumble.Sandbox("rope", threads=1)
+    sim.record(str(path))
+    sim.step(20)
+    sim.finish_recording()
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.raises(RuntimeError, match="cut short at byte"):
+        tumble.verify(path, threads=1)
