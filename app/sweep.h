@@ -89,6 +89,7 @@ struct CaseResult {
     std::string detail;               ///< what went wrong: the blow-up's or error's message
     double wallSeconds = 0.0;         ///< the runs' wall time, s (the sweep's own overhead is measured
                                       ///< against it)
+    std::string sweep;                ///< hash16 of the sweepFingerprint it was run for
 };
 
 /// `tumble sweep`'s options.
@@ -119,8 +120,9 @@ int commandSweep(const Catalog& catalog, const SweepOptions& options);
 
 /// OUT/cases/NNNNN.
 std::string caseFolder(const std::string& out, std::size_t c);
-/// The case's result, if it has ended.
-std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, std::size_t metricCount);
+/// The case's result, if it has ended as a case of this sweep (a result another sweep left in the folder is
+/// none: two sweeps started in one folder before either had a result mixed their rows in one table).
+std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, const Sweep& sweep);
 /// The cases of shard i of n: those whose index is i modulo n.
 std::vector<std::size_t> shardCases(std::size_t caseCount, std::size_t shard, std::size_t shards);
 /// Writes the case's result.json whole (a temporary file renamed).

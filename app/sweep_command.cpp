@@ -148,7 +148,7 @@ int defaultJobs(const Sweep& s) {
 std::string statusCounts(const Sweep& s, const std::string& out, const std::vector<std::size_t>& cases) {
     std::map<std::string, std::size_t> counts;
     for (std::size_t c : cases) {
-        const auto r = readCaseResult(out, c, s.metrics.size());
+        const auto r = readCaseResult(out, c, s);
         ++counts[r ? r->status : "not run"];
     }
     std::string text;
@@ -162,7 +162,7 @@ int sweepStatus(const Sweep& s, const std::string& out) {
     const bool started = checkManifest(s, out);
     std::vector<std::size_t> left;
     for (std::size_t c = 0; c < s.caseCount(); ++c) {
-        if (!readCaseResult(out, c, s.metrics.size())) {
+        if (!readCaseResult(out, c, s)) {
             left.push_back(c);
         }
     }

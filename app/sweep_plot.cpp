@@ -61,7 +61,7 @@ Series collectPoints(const Sweep& s, const std::string& out, std::size_t column,
     Series series;
     const bool numeric = numericAxis(s.axes[axis]);
     for (std::size_t c = 0; c < s.caseCount(); ++c) {
-        const auto r = readCaseResult(out, c, s.metrics.size());
+        const auto r = readCaseResult(out, c, s);
         if (!r) {
             continue;
         }

@@ -207,13 +207,14 @@ void writeCaseResult(const std::string& out, std::size_t c, const CaseResult& r)
               {"hash", r.hash},
               {"metrics", r.metrics},
               {"detail", r.detail},
-              {"wall_s", r.wallSeconds}};
+              {"wall_s", r.wallSeconds},
+              {"sweep", r.sweep}};
     // a message cut mid-character is not UTF-8: replaced, not thrown over
     writeAtomically(caseFolder(out, c) + "/result.json",
                     j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n");
 }
 
-std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, std::size_t metricCount) {
+std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, const Sweep& sweep) {
     const std::string path = caseFolder(out, c) + "/result.json";
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) {
@@ -232,7 +233,8 @@ std::optional<CaseResult> readCaseResult(const std::string& out, std::size_t c, 
         r.metrics = j.at("metrics").get<std::vector<std::string>>();
         r.detail = j.at("detail").get<std::string>();
         r.wallSeconds = j.at("wall_s").get<double>();
-        if (r.metrics.size() != metricCount) {
+        r.sweep = j.at("sweep").get<std::string>();
+        if (r.metrics.size() != sweep.metrics.size() || r.sweep != hash16(sweepFingerprint(sweep))) {
             return std::nullopt;
         }
         return r;
@@ -295,7 +297,7 @@ std::size_t mergeResults(const Sweep& sweep, const std::string& out) {
     line(resultColumns(sweep));
     std::size_t missing = 0;
     for (std::size_t c = 0; c < sweep.caseCount(); ++c) {
-        if (const auto r = readCaseResult(out, c, sweep.metrics.size())) {
+        if (const auto r = readCaseResult(out, c, sweep)) {
             line(resultRow(sweep, c, *r));
         } else {
             ++missing;

@@ -310,7 +310,8 @@ void runEnded(const Sweep& s, const std::string& out, std::vector<CaseRun>& runn
         startRun(s, out, run);
         return;
     }
-    const CaseResult r = caseResult(s, out, run);
+    CaseResult r = caseResult(s, out, run);
+    r.sweep = hash16(sweepFingerprint(s));
     writeCaseResult(out, run.c, r);
     progress.caseEnded(s, run.c, r);
     tally.runSeconds += r.wallSeconds;
@@ -407,7 +408,7 @@ CaseTally runCases(const Sweep& s, const std::string& out, const std::vector<std
                    const ProgressStyle& style) {
     std::vector<std::size_t> todo;
     for (std::size_t c : cases) {
-        if (!readCaseResult(out, c, s.metrics.size())) {
+        if (!readCaseResult(out, c, s)) {
             todo.push_back(c);
         }
     }

@@ -141,7 +141,7 @@ bool waitForJob(const Sweep& s, const std::string& out, const std::string& job, 
 std::string unfinishedTasks(const Sweep& s, const std::string& out, std::size_t tasks) {
     std::set<std::size_t> left;
     for (std::size_t c = 0; c < s.caseCount(); ++c) {
-        if (!readCaseResult(out, c, s.metrics.size())) {
+        if (!readCaseResult(out, c, s)) {
             left.insert(c % tasks);
         }
     }

@@ -486,6 +486,28 @@ TEST(SweepLocal, AChangedSweepFileIsRefusedInTheFolderOfTheOld) {
     EXPECT_NE(r.err.find("holds the results of another sweep"), std::string::npos) << r.err;
 }
 
+// Two sweeps started in one folder before either had a result (shards of both, or Slurm arrays queued
+// side by side): the second replaced sweep.json, and each then took the other's results for its own, so the
+// merged table mixed rows of both (frames 20 and 21 here). A result now names the sweep it was run for:
+// another's is no result. Seen to fail (the merge took both rows of the other sweep, exit 0).
+TEST(SweepLocal, AnotherSweepsResultsInTheFolderAreNotTakenForThisOnes) {
+    const std::string out = tempPath("mixed_out");
+    const std::string axis = "[[axis]]\nkey = \"chain.rope.stiffness\"\nvalues = [300.0, 400.0]\n";
+    const std::string a = writeTemp("mixed_a.toml", ropeSweep(axis, "", 20));
+    ASSERT_EQ(runTumble({"sweep", a, "--local", "--out", out}).exitCode, 0);
+    std::filesystem::remove(out + "/sweep.json"); // as when the other sweep replaced it before any result
+    const std::string b = writeTemp("mixed_b.toml", ropeSweep(axis, "", 21));
+    const auto merged = runTumble({"sweep", b, "--merge", "--out", out});
+    EXPECT_EQ(merged.exitCode, 1) << merged.err;
+    EXPECT_NE(merged.err.find("2 cases have not run"), std::string::npos) << merged.err;
+    // and its own run does them again, rather than skipping them as done
+    ASSERT_EQ(runTumble({"sweep", b, "--local", "--out", out}).exitCode, 0);
+    const auto rows = readCsv(out + "/results.csv");
+    ASSERT_EQ(rows.size(), 3u);
+    const std::string command = readFile(out + "/cases/00000/command.txt");
+    EXPECT_NE(command.find("--frames 21"), std::string::npos) << command;
+}
+
 TEST(SweepLocal, ShardsRunTheirShareAndMergeMakesTheTable) {
     const std::string file = writeTemp("shards.toml", ropeSweep("[[axis]]\nkey = \"chain.rope.damping\"\n"
                                                                 "range = [0.1, 0.6, 7]\n"));

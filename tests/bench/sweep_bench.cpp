@@ -57,7 +57,7 @@ void BM_SweepOverhead200Rope(benchmark::State& state) {
         const double sweepSeconds = seconds(swept);
         double runSeconds = 0.0;
         for (std::size_t c = 0; c < sweep.caseCount(); ++c) {
-            runSeconds += readCaseResult(dir + "/out", c, 0).value_or(CaseResult{}).wallSeconds;
+            runSeconds += readCaseResult(dir + "/out", c, sweep).value_or(CaseResult{}).wallSeconds;
         }
         state.counters["overhead_ms_per_case"] =
             1e3 * (sweepSeconds - directSeconds) / double(sweep.caseCount());
