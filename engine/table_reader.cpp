@@ -1,6 +1,7 @@
 #include "engine/table_reader.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -95,6 +96,15 @@ std::string nearestName(std::string_view typo, const std::vector<std::string>& k
     std::size_t bestDistance = 3;
     if (typo.size() > 64) {
         return best; // no name is that long: nothing to suggest, and no quadratic work on a huge string
+    }
+    // the same name in other capitals first ("+Y" is '+y', not '+x', one edit away too)
+    for (const std::string& k : known) {
+        if (k.size() == typo.size() && std::equal(k.begin(), k.end(), typo.begin(), [](char a, char b) {
+                return std::tolower(static_cast<unsigned char>(a)) ==
+                       std::tolower(static_cast<unsigned char>(b));
+            })) {
+            return k;
+        }
     }
     for (const std::string& k : known) {
         if (k.size() > typo.size() + 2 || typo.size() > k.size() + 2) {

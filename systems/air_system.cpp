@@ -38,7 +38,7 @@ void readBorder(TableReader& r, Air& air) {
         air.border.fill(b);
         return;
     }
-    const toml::table* sides = r.subtable("border");
+    const toml::table* sides = node->is_table() ? r.subtable("border") : nullptr;
     if (!sides) {
         r.fail("border", "'border' is \"closed\", \"open\", or a table of sides, e.g. border = { \"+y\" = "
                          "\"open\" } (sides -x +x -y +y -z +z; the others closed)");

@@ -126,6 +126,18 @@ std::vector<BadCase> cases() {
          {"--set", "crate.softbody.mass=1"},
          0,
          "--set crate.softbody.mass=1: entity 'crate': 'rigid_body' and 'softbody' are two bodies"},
+        // a side in capitals was offered '+x' (one edit away, as '+y' is); a number for 'border' was told it
+        // must be a table, though a word is taken too
+        {"air_border_in_capitals",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\nborder = { \"+Y\" = \"open\" }\n",
+         {},
+         6,
+         "unknown key '+Y' in entity 'room' [air] border (did you mean '+y'?)"},
+        {"air_border_a_number",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\nborder = 1\n",
+         {},
+         6,
+         "'border' is \"closed\", \"open\", or a table of sides"},
         {"water_too_few_cells",
          kScene + "[[entity]]\nname = \"c\"\n[entity.water]\ncells = [2, 3]\n",
          {},
