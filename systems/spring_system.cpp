@@ -549,6 +549,16 @@ std::string remedy(const SpringNetwork& net, const StepContext& ctx) {
     case Integrator::Midpoint:
     case Integrator::Rk4:
     case Integrator::SymplecticEuler:
+        if (net.kind == NetworkKind::Fem && net.fem.stiffnessDamping > 0.0) {
+            // the damping force -beta K v taken explicitly needs h < 2 / (beta omega^2), for stiff elements
+            // far below the elastic limit 2 / omega: a step four times smaller seldom saves it
+            return "the element damping (damping = " + std::to_string(net.fem.stiffnessDamping) +
+                   " s) is taken explicitly, which needs a step under 2 / (damping omega^2), far below what "
+                   "the "
+                   "elements alone need: set damping = 0, or integrator = \"implicit_euler\" (stable at any "
+                   "step and damping), or a much smaller step than " +
+                   smaller;
+        }
         return "a smaller step, " + smaller + ", or integrator = \"implicit_euler\", stable at any step";
     case Integrator::ImplicitEuler:
         return "implicit Euler is stable for springs, so a force it takes explicitly (a strong wind or "
