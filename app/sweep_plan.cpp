@@ -127,6 +127,11 @@ SweepAxis readAxis(const toml::table& t, std::size_t i, std::uint64_t seed, cons
         axis.key.find('.') == std::string::npos) {
         r.fail("key", "the key is what --set takes before '=', e.g. \"chain.rope.stiffness\"");
     }
+    if (axis.key == "scene.frames") {
+        r.fail("key",
+               "every case runs the sweep's own 'frames': an axis on scene.frames would change nothing "
+               "(sweeps of their own for other lengths)");
+    }
     const bool integer = r.boolean("integer", false);
     const int kinds =
         int(r.has("values")) + int(r.has("range")) + int(r.has("log_range")) + int(r.has("random"));
@@ -149,6 +154,14 @@ SweepAxis readAxis(const toml::table& t, std::size_t i, std::uint64_t seed, cons
     for (std::string_view key : {"range", "log_range"}) {
         if (r.has(key)) {
             readRange(r, key, axis, key == "log_range", integer);
+            // rounded to whole numbers, a range of more values than whole numbers in it repeats cases
+            for (std::size_t v = 1; integer && v < axis.values.size(); ++v) {
+                if (axis.values[v] == axis.values[v - 1]) {
+                    r.fail(key,
+                           std::string(key) + " with integer = true gives " + axis.values[v] +
+                               " more than once: the same case again; ask for fewer values or a wider range");
+                }
+            }
         }
     }
     if (r.has("random")) {

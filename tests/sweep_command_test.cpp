@@ -232,6 +232,12 @@ TEST(SweepPlan, BadInputIsLocatedWithADidYouMean) {
         {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"y\"\n",
          "one of", 6},
         {"[sweep]\nscenario = \"rope\"\nthreads = 512\n", "outside", 3},
+        // an axis that changes nothing, or repeats cases, passed without a word
+        {"[sweep]\nscenario = \"rope\"\nframes = 5\n[[axis]]\nkey = \"scene.frames\"\nvalues = [10, 20]\n",
+         "would change nothing", 5},
+        {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"scene.substeps\"\ninteger = true\nrange = [1, 2, "
+         "5]\n",
+         "more than once", 6},
         {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"chain.rope.segments\"\ninteger = true\n"
          "random = { min = 0.2, max = 0.8, count = 3 }\n",
          "no whole number", 6},
