@@ -383,9 +383,10 @@ void advanceAir(World& world, const StepContext& ctx) {
             ProfileStage stage(ctx.profiler, "air.bodies");
             voxeliseBodies(air, bodies);
         }
-        std::optional<ProfileStage> stage(std::in_place, ctx.profiler, "air.step");
+        // timed as three stages, each once a step: the advection, the sources (after it: air_solver.h, in
+        // the order they were loaded), then forces, viscosity and the projection
+        std::optional<ProfileStage> stage(std::in_place, ctx.profiler, "air.advect");
         advectAir(air, ctx.dt, poolOr(ctx.pool));
-        // the sources after the advection (air_solver.h), in the order they were loaded
         stage.emplace(ctx.profiler, "air.sources");
         world.view<const Transform, const AirSource>().each(
             [&](Entity, const Transform& t, const AirSource& s) {
@@ -393,7 +394,7 @@ void advanceAir(World& world, const StepContext& ctx) {
                     feedAir(air, s, t.position, ctx.dt);
                 }
             });
-        stage.emplace(ctx.profiler, "air.step");
+        stage.emplace(ctx.profiler, "air.project");
         finishAirStep(air, gravity, ctx.dt, poolOr(ctx.pool));
     });
 }
