@@ -116,7 +116,7 @@ int commandReplay(const Catalog& catalog, const RunOptions& o) {
                      replay.header.buildId.c_str(), buildId());
     }
     const int code = runSession(catalog, o, src);
-    if (!replay.complete && code == kExitOk) {
+    if (!replay.complete && (code == kExitOk || code == kExitFailure)) {
         // played as far as it goes, but a file cut short is bad input (CONTRACT.md, "Replays"): a script must
         // not take a replay that stopped at frame 8 of 40 for a whole one
         std::fprintf(stderr, "tumble: %s: at byte %llu: the file ends there, cut short (exit 2)\n",

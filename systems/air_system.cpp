@@ -222,7 +222,7 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
         }
     }
     const bool within = airContains(air, at);
-    int c[3]; // a shape smaller than a cell: the cell it is in (none when it has left the box)
+    int c[3] = {0, 0, 0}; // a shape smaller than a cell: the cell it is in (none when it has left the box)
     if (fed == 0 && within) {
         const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
         for (std::size_t a = 0; a < 3; ++a) {
@@ -234,26 +234,11 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
     if (!source.drives) {
         return;
     }
-    // the faces inside: each component on its own faces (the box's sides' faces too); a shape smaller than
-    // a cell drives the faces of the cell it is in
+    // the faces inside: each component on its own faces (the box's sides' faces too); a shape with neither
+    // a cell's centre nor a face inside (smaller than a cell) drives the faces of the cell it is in
     std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
     const double speed[3] = {source.velocity.x, source.velocity.y, source.velocity.z};
-    if (fed == 0) {
-        if (within) {
-            for (int ax = 0; ax < 3; ++ax) {
-                std::array<int, 3> n = air.cells;
-                n[std::size_t(ax)] += 1;
-                for (int side = 0; side < 2; ++side) {
-                    std::array<int, 3> f{c[0], c[1], c[2]};
-                    f[std::size_t(ax)] += side;
-                    (*faces[ax])[std::size_t(f[0]) +
-                                 std::size_t(n[0]) * (std::size_t(f[1]) + std::size_t(n[1]) * f[2])] =
-                        float(speed[ax]);
-                }
-            }
-        }
-        return;
-    }
+    int driven = 0;
     for (int a = 0; a < 3; ++a) {
         std::array<int, 3> n = air.cells;
         n[std::size_t(a)] += 1;
@@ -267,8 +252,22 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
                         (*faces[a])[std::size_t(i) +
                                     std::size_t(n[0]) * (std::size_t(j) + std::size_t(n[1]) * k)] =
                             float(speed[a]);
+                        ++driven;
                     }
                 }
+            }
+        }
+    }
+    if (driven == 0 && fed == 0 && within) {
+        for (int ax = 0; ax < 3; ++ax) {
+            std::array<int, 3> n = air.cells;
+            n[std::size_t(ax)] += 1;
+            for (int side = 0; side < 2; ++side) {
+                std::array<int, 3> f{c[0], c[1], c[2]};
+                f[std::size_t(ax)] += side;
+                (*faces[ax])[std::size_t(f[0]) +
+                             std::size_t(n[0]) * (std::size_t(f[1]) + std::size_t(n[1]) * f[2])] =
+                    float(speed[ax]);
             }
         }
     }

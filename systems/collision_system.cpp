@@ -580,7 +580,7 @@ void springsAgainst(World& world, std::vector<RigidBody>& bodies, bool respond) 
                     const double vn = dot(relative, n);
                     const double mu =
                         std::sqrt(body.friction * net.friction); // combined as Box2D and our Bullet do
-                    if (respond && !body.dynamic() && net.kind == NetworkKind::Fem) {
+                    if (respond && !body.dynamic() && net.kind == NetworkKind::Fem && vn <= 0.0) {
                         net.resting.push_back({std::uint32_t(i), n, mu});
                     }
                     if (!respond || vn >= 0.0) {

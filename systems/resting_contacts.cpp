@@ -24,62 +24,70 @@ Mat3 widened(const Mat3T<float>& block) {
     return sum;
 }
 
-/// Node i's block: as saved, plus c n n^T of each of its contacts still held.
-void rebuildBlock(const SpringNetwork& net, BlockMatrix<float>& a, std::uint32_t i,
+/// The contacts of one node are next to each other in net.resting (the collision pass goes mass by mass):
+/// calls fn(first, end) for each node's run of them.
+template <class F>
+void eachNode(const SpringNetwork& net, F&& fn) {
+    for (std::size_t first = 0; first < net.resting.size();) {
+        std::size_t end = first + 1;
+        while (end < net.resting.size() && net.resting[end].mass == net.resting[first].mass) {
+            ++end;
+        }
+        fn(first, end);
+        first = end;
+    }
+}
+
+/// A node's block: as saved, plus c n n^T of each of its contacts [first, end) still held.
+void rebuildBlock(const SpringNetwork& net, BlockMatrix<float>& a, std::size_t first, std::size_t end,
                   const std::vector<double>& weights, const Mat3T<float>& saved) {
     Mat3 sum = widened(saved);
-    for (std::size_t k = 0; k < net.resting.size(); ++k) {
-        if (net.resting[k].mass == i && weights[k] > 0.0) {
+    for (std::size_t k = first; k < end; ++k) {
+        if (weights[k] > 0.0) {
             sum += restingBlock(net.resting[k].normal, weights[k]);
         }
     }
-    a.val[a.diag[i]] = sum.cast<float>();
+    a.val[a.diag[net.resting[first].mass]] = sum.cast<float>();
 }
 
 } // namespace
 
 void holdResting(const SpringNetwork& net, BlockMatrix<float>& a, std::vector<double>& weights,
                  std::vector<Mat3T<float>>& saved) {
-    const std::size_t n = a.n;
     weights.assign(net.resting.size(), 0.0);
     saved.assign(net.resting.size(), Mat3T<float>{});
-    for (std::size_t k = 0; k < net.resting.size(); ++k) {
-        const std::uint32_t i = net.resting[k].mass;
-        if (i < n && !net.pinned[i]) {
-            saved[k] = a.val[a.diag[i]];
-            for (std::size_t e = 0; e < k; ++e) { // a node's first contact saved its block untouched
-                if (net.resting[e].mass == i) {
-                    saved[k] = saved[e];
-                    break;
-                }
-            }
-            weights[k] = kRestingStiffness * (double(saved[k].m[0]) + saved[k].m[4] + saved[k].m[8]) / 3.0;
+    eachNode(net, [&](std::size_t first, std::size_t end) {
+        const std::uint32_t i = net.resting[first].mass;
+        if (i >= a.n || net.pinned[i]) {
+            return;
         }
-    }
-    for (std::size_t k = 0; k < net.resting.size(); ++k) {
-        if (weights[k] > 0.0) {
-            rebuildBlock(net, a, net.resting[k].mass, weights, saved[k]);
+        saved[first] = a.val[a.diag[i]]; // each weight from the block before any contact
+        const double weight =
+            kRestingStiffness * (double(saved[first].m[0]) + saved[first].m[4] + saved[first].m[8]) / 3.0;
+        for (std::size_t k = first; k < end; ++k) {
+            weights[k] = weight;
         }
-    }
+        rebuildBlock(net, a, first, end, weights, saved[first]);
+    });
 }
 
 bool releasePulling(const SpringNetwork& net, BlockMatrix<float>& a, const std::vector<Vec3T<float>>& dv,
                     std::vector<double>& weights, const std::vector<Mat3T<float>>& saved) {
     bool released = false;
-    for (std::size_t k = 0; k < net.resting.size(); ++k) {
-        const RestingContact& c = net.resting[k];
-        if (weights[k] > 0.0 && dot(c.normal, dv[c.mass].toVec3()) > 0.0) {
-            weights[k] = 0.0;
-            released = true;
-        }
-    }
-    if (released) {
-        for (std::size_t k = 0; k < net.resting.size(); ++k) {
-            if (net.resting[k].mass < a.n && !net.pinned[net.resting[k].mass]) {
-                rebuildBlock(net, a, net.resting[k].mass, weights, saved[k]);
+    eachNode(net, [&](std::size_t first, std::size_t end) {
+        bool let = false;
+        for (std::size_t k = first; k < end; ++k) {
+            const RestingContact& c = net.resting[k];
+            if (weights[k] > 0.0 && dot(c.normal, dv[c.mass].toVec3()) > 0.0) {
+                weights[k] = 0.0;
+                let = true;
             }
         }
-    }
+        if (let) {
+            rebuildBlock(net, a, first, end, weights, saved[first]);
+            released = true;
+        }
+    });
     return released;
 }
 

@@ -24,7 +24,8 @@ namespace tumble {
 constexpr double kRestingStiffness = 1e3;
 
 /// Adds each resting contact's c n n^T to its node's diagonal block of `a` (c into weights[k]), keeping
-/// every block it changes as it was in `saved` (per contact).
+/// each block it changes as it was in `saved` (at the node's first contact: a node's contacts are next to
+/// each other, as the collision pass records them mass by mass).
 void holdResting(const SpringNetwork& net, BlockMatrix<float>& a, std::vector<double>& weights,
                  std::vector<Mat3T<float>>& saved);
 

@@ -553,11 +553,11 @@ std::string remedy(const SpringNetwork& net, const StepContext& ctx) {
             // the damping force -beta K v taken explicitly needs h < 2 / (beta omega^2), for stiff elements
             // far below the elastic limit 2 / omega: a step four times smaller seldom saves it
             return "the element damping (damping = " + std::to_string(net.fem.stiffnessDamping) +
-                   " s) is taken explicitly, which needs a step under 2 / (damping omega^2), far below what "
-                   "the "
-                   "elements alone need: set damping = 0, or integrator = \"implicit_euler\" (stable at any "
-                   "step and damping), or a much smaller step than " +
-                   smaller;
+                   " s) is taken explicitly, which needs a step under 2 / (damping omega^2), for stiff "
+                   "elements "
+                   "far below what they alone need: set damping = 0, or integrator = \"implicit_euler\" "
+                   "(stable at any step and damping), or a smaller step, " +
+                   smaller + " or less";
         }
         return "a smaller step, " + smaller + ", or integrator = \"implicit_euler\", stable at any step";
     case Integrator::ImplicitEuler:
@@ -872,6 +872,7 @@ void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw
         for (Vec3& x : net.x) {
             x += moved;
         }
+        net.resting.clear(); // the surfaces it rested on are where it was
     }
 }
 

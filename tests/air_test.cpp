@@ -352,6 +352,17 @@ TEST(Air, ASourceFeedsItsShape) {
         EXPECT_EQ(small.v[std::size_t(5 + 8 * (j + 9 * 4))], 5.0f) << j;
     }
 
+    // a thin sheet on a face plane holds no cell's centre but drives every face inside it (49 here), not
+    // only the six of the cell its centre is in (as a review found the line above first did)
+    Air sheetAir = makeAir({8, 8, 8}, 0.1, AirBorder::Closed);
+    AirSource sheet;
+    sheet.sphere = false;
+    sheet.halfExtents = {0.02, 0.35, 0.35};
+    sheet.drives = true;
+    sheet.velocity = {3.0, 0.0, 0.0};
+    feedAir(sheetAir, sheet, {0.0, 0.0, 0.0}, 0.5);
+    EXPECT_EQ(std::count(sheetAir.u.begin(), sheetAir.u.end(), 3.0f), 49);
+
     // and one whose centre has left the box feeds nothing (it fed the nearest edge cell for ever)
     Air left = makeAir({8, 8, 8}, 0.1, AirBorder::Closed);
     feedAir(left, tiny, {3.0, 0.0, 0.0}, 0.5);

@@ -4,7 +4,9 @@ and every public call given bad arguments raising, never crashing the interprete
 
 import json
 import os
+import signal
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -197,24 +199,30 @@ def test_two_threads_sharing_one_sandbox_take_turns():
 
 
 def test_verify_puts_back_the_callers_signal_handlers(tmp_path):
-    # it took SIGINT and SIGTERM for its run and left them at the default: Ctrl-C then killed Python
-    import signal
-    path = str(tmp_path / "r.tumble")
-    sim = tumble.Sandbox("rope", threads=1)
-    sim.record(path)
-    sim.step(3)
-    sim.finish_recording()
-
-    def mine(signum, frame):  # pragma: no cover - never called
-        pass
-
-    before = signal.signal(signal.SIGTERM, mine)
-    try:
-        assert tumble.verify(path, threads=1) is True
-        assert signal.getsignal(signal.SIGTERM) is mine
-        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    finally:
-        signal.signal(signal.SIGTERM, before)
+    # it left SIGINT and SIGTERM at SIG_DFL in the OS (Python's own table of handlers, which
+    # signal.getsignal reads, never saw it): after one verify, Ctrl-C killed Python. In a child process,
+    # so that a handler lost kills that, not the tests: after verify, SIGTERM and SIGINT reach Python.
+    script = tmp_path / "child.py"
+    script.write_text(
+        "import os, signal, tumble\n"
+        f"path = {str(tmp_path / 'r.tumble')!r}\n"
+        "sim = tumble.Sandbox('rope', threads=1)\n"
+        "sim.record(path)\n"
+        "sim.step(3)\n"
+        "sim.finish_recording()\n"
+        "got = []\n"
+        "signal.signal(signal.SIGTERM, lambda s, f: got.append(s))\n"
+        "assert tumble.verify(path, threads=1) is True\n"
+        "os.kill(os.getpid(), signal.SIGTERM)\n"
+        "try:\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "except KeyboardInterrupt:\n"
+        "    got.append('interrupt')\n"
+        "print(got)\n")
+    child = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
+                           env=dict(os.environ))
+    assert child.returncode == 0, child.stderr
+    assert child.stdout.strip() == "[" + str(int(signal.SIGTERM)) + ", 'interrupt']"
 
 
 @pytest.mark.parametrize("kwargs", [
