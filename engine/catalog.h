@@ -33,6 +33,9 @@ struct ComponentLoader {
     /// have read the key too, or the table's check of unknown keys refuses it.
     std::function<void(TableReader& reader, World& world, Entity entity, const EntityLookup& lookup)> link =
         {};
+    /// A body (springs, a rigid body, water, ...): an entity holds one at most, and the loader refuses a
+    /// second (the dump and the hash take one component per entity; an emitter may ride on a body).
+    bool body = false;
 };
 
 /// How one component type appears in dumps and in the state hash.

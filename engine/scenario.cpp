@@ -11,7 +11,6 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <set>
 #include <sstream>
 #include <sys/stat.h>
 #include <vector>
@@ -341,9 +340,7 @@ componentTables(const toml::table& table, const std::string& where, const LoadCo
         components.emplace_back(loader, v.as_table());
         // an entity is one body: a second would be loaded and then lost (the dump and the hash take the
         // first), or a --set of a table the entity does not have would put one beside its own
-        static const std::set<std::string, std::less<>> bodies = {
-            "springs", "rope", "cloth", "softbody", "fem", "rigid_body", "rigid_body_2d", "water", "air"};
-        if (bodies.count(key) != 0) {
+        if (loader->body) {
             if (!body.empty()) {
                 ctx.fail(
                     &v,

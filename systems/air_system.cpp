@@ -467,7 +467,7 @@ Retune airSourceRetune() {
 } // namespace
 
 void registerAirSystem(Catalog& catalog) {
-    catalog.addComponent({"air", loadAir, {}});
+    catalog.addComponent({"air", loadAir, {}, true});
     catalog.addComponent({"air_source", loadAirSource, linkAirSource});
     catalog.addState<Air>("air", dumpAir, hashAir);
     catalog.addRetune(airRetune());

@@ -633,8 +633,8 @@ Retune bodyRetune(const char* key) {
 } // namespace
 
 void registerRigidSystem(Catalog& catalog) {
-    catalog.addComponent({"rigid_body", loadRigidBody});
-    catalog.addComponent({"rigid_body_2d", loadRigidBody2D});
+    catalog.addComponent({"rigid_body", loadRigidBody, {}, true});
+    catalog.addComponent({"rigid_body_2d", loadRigidBody2D, {}, true});
     catalog.setJointLoader(loadJoint);
     catalog.addState<RigidBody>("rigid", dumpRigid, hashRigid);
     catalog.addState<RigidBody2D>("rigid2d", dumpRigid2D, hashRigid2D);

@@ -879,11 +879,11 @@ void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw
 } // namespace
 
 void registerSpringSystem(Catalog& catalog) {
-    catalog.addComponent({"springs", loadSprings});
-    catalog.addComponent({"rope", loadRope});
-    catalog.addComponent({"cloth", loadCloth});
-    catalog.addComponent({"softbody", loadSoftBody});
-    catalog.addComponent({"fem", loadFem});
+    catalog.addComponent({"springs", loadSprings, {}, true});
+    catalog.addComponent({"rope", loadRope, {}, true});
+    catalog.addComponent({"cloth", loadCloth, {}, true});
+    catalog.addComponent({"softbody", loadSoftBody, {}, true});
+    catalog.addComponent({"fem", loadFem, {}, true});
     catalog.addRetune(Retune{{"springs", "rope", "cloth", "softbody", "fem"},
                              hasSprings,
                              [](const World& bw, Entity b, const World& aw, Entity a) {

@@ -667,7 +667,7 @@ void stepWater(World& world, const StepContext& ctx) {
 }
 
 void registerWaterSystem(Catalog& catalog) {
-    catalog.addComponent({"water", loadWater});
+    catalog.addComponent({"water", loadWater, {}, true});
     catalog.addState<Water>("water", dumpWater, hashWater);
     // a `set` event on the water's keys (engine/retune.h): its physics, not its grid
     catalog.addRetune(Retune{
