@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <mutex>
 #include <thread>
 
 namespace tumble {
@@ -18,6 +19,15 @@ extern "C" void onStopSignal(int) {
     g_stop.store(true);
 }
 
+// The StopSignals alive and the handlers from before the first of them. The handlers are the process's, not
+// a thread's: runs that overlap (two Python threads each verifying a replay) share one installation, put
+// back when the last of them ends, whichever order they end in (each putting back what it found left ours
+// installed when the first to start ended last).
+std::mutex g_stopMutex;
+int g_stopUsers = 0;
+struct sigaction g_previousInt {
+}, g_previousTerm{};
+
 } // namespace
 
 FramePacer::FramePacer(const Clock& clock, std::int64_t periodNs)
@@ -31,20 +41,28 @@ void FramePacer::wait() {
 }
 
 StopSignal::StopSignal() {
+    const std::lock_guard lock(g_stopMutex);
+    if (g_stopUsers++ > 0) {
+        return; // installed, by a run under way
+    }
     g_stop.store(false);
     // SA_RESETHAND: the handler goes after the first signal, so a second one kills
     struct sigaction stop {};
     stop.sa_handler = onStopSignal;
     stop.sa_flags = SA_RESETHAND;
     sigemptyset(&stop.sa_mask);
-    ::sigaction(SIGINT, &stop, &m_previousInt);
-    ::sigaction(SIGTERM, &stop, &m_previousTerm);
+    ::sigaction(SIGINT, &stop, &g_previousInt);
+    ::sigaction(SIGTERM, &stop, &g_previousTerm);
 }
 
 StopSignal::~StopSignal() {
+    const std::lock_guard lock(g_stopMutex);
+    if (--g_stopUsers > 0) {
+        return;
+    }
     // the handlers from before (a program embedding the library keeps its own)
-    ::sigaction(SIGINT, &m_previousInt, nullptr);
-    ::sigaction(SIGTERM, &m_previousTerm, nullptr);
+    ::sigaction(SIGINT, &g_previousInt, nullptr);
+    ::sigaction(SIGTERM, &g_previousTerm, nullptr);
 }
 
 bool StopSignal::requested() const {

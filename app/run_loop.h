@@ -30,7 +30,8 @@ private:
 
 /// While it lives, the first SIGINT or SIGTERM asks the run to stop (requested() turns true; the loop ends
 /// at its next frame and keeps its outputs) and a second one kills the process as usual; the handlers from
-/// before are put back when it goes.
+/// before are put back when it goes (when the last goes, if several live at once: the flag is the
+/// process's, and a signal asks each of them to stop).
 class StopSignal {
 public:
     StopSignal();
@@ -38,10 +39,6 @@ public:
     StopSignal(const StopSignal&) = delete;
     StopSignal& operator=(const StopSignal&) = delete;
     bool requested() const;
-
-private:
-    struct sigaction m_previousInt {
-    }, m_previousTerm{}; ///< put back when it goes
 };
 
 /// Says each failure and note of a run's RunReport once, in the order they were added.

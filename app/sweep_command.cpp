@@ -144,12 +144,16 @@ int defaultJobs(const Sweep& s) {
     return std::max(1, cores / s.threads);
 }
 
-/// "22 ok, 2 blow_up, 1 not run" over the given cases.
+/// "22 ok, 2 blow_up, 1 not run" over the given cases; a case whose folder is there but holds no result has
+/// started (it is running now, or was stopped before it ended).
 std::string statusCounts(const Sweep& s, const std::string& out, const std::vector<std::size_t>& cases) {
     std::map<std::string, std::size_t> counts;
     for (std::size_t c : cases) {
         const auto r = readCaseResult(out, c, s);
-        ++counts[r ? r->status : "not run"];
+        std::error_code ec;
+        ++counts[r                                    ? r->status
+                 : fs::exists(caseFolder(out, c), ec) ? "started (running, or stopped before its end)"
+                                                      : "not run"];
     }
     std::string text;
     for (const auto& [status, n] : counts) {

@@ -42,6 +42,20 @@ std::string numberText(double v, bool integer) {
     return s;
 }
 
+/// Whether a value is, or holds, a number that is not finite (TOML's nan and inf): no key takes one.
+bool nonFinite(const toml::node& v) {
+    if (v.is_floating_point()) {
+        return !std::isfinite(v.value_or(0.0));
+    }
+    if (const toml::array* a = v.as_array()) {
+        return std::any_of(a->begin(), a->end(), [](const toml::node& n) { return nonFinite(n); });
+    }
+    if (const toml::table* t = v.as_table()) {
+        return std::any_of(t->begin(), t->end(), [](const auto& entry) { return nonFinite(entry.second); });
+    }
+    return false;
+}
+
 void addValue(SweepAxis& axis, const toml::node& v) {
     if (v.is_floating_point()) {
         axis.values.push_back(numberText(v.value_or(0.0), false));
@@ -148,6 +162,9 @@ SweepAxis readAxis(const toml::table& t, std::size_t i, std::uint64_t seed, cons
                    "integer = true rounds a range's or random's values: listed values are as written");
         }
         for (const toml::node& v : *a) {
+            if (nonFinite(v)) {
+                r.failAt(v, "values: " + oneLineToml(v) + " is not finite: no key takes nan or inf");
+            }
             addValue(axis, v);
         }
     }
@@ -304,12 +321,7 @@ Sweep readSweep(const std::string& path) {
     s.path = path;
     s.file = fs::absolute(path).lexically_normal().string();
     s.name = fs::path(path).stem().string();
-    std::string text;
-    try {
-        text = readScenarioFile(path);
-    } catch (const ScenarioError& e) {
-        throw ScenarioError(path, 0, 0, "cannot read the sweep file: " + e.message());
-    }
+    const std::string text = readScenarioFile(path, "the sweep file");
     const toml::table root = parseToml(path, text);
     LoadContext ctx;
     ctx.file = path;

@@ -320,6 +320,20 @@ std::uint64_t parseHeader(const std::string& path, const std::string& bytes, Rep
         top.fail("the header runs past the end of the file");
     }
     const std::string header = bytes.substr(headerAt, headerBytes);
+    const std::uint64_t at = headerAt + headerBytes;
+    if (bytes.size() - at < 8) {
+        throw ReplayError(path, at, "the data ends inside the header's checksum");
+    }
+    // the checksum before the fields: a damaged length inside the header is reported as damage to the
+    // header, not as a string running out wherever the bad length sent the parse
+    std::uint64_t sum;
+    std::memcpy(&sum, bytes.data() + at, 8);
+    if (sum != checksum(header)) {
+        throw ReplayError(path, headerAt,
+                          "the header is damaged (its checksum does not match: a byte of the header, or of "
+                          "its length at byte " +
+                              std::to_string(headerAt - 4) + ", has changed)");
+    }
     Cursor h(path, header, headerAt);
     file.header.buildId = h.string("the build id");
     file.header.scenarioPath = h.string("the scenario's path");
@@ -327,15 +341,6 @@ std::uint64_t parseHeader(const std::string& path, const std::string& bytes, Rep
     const std::uint32_t n = h.count("the overrides", 4);
     for (std::uint32_t i = 0; i < n; ++i) {
         file.header.overrides.push_back(h.string("an override"));
-    }
-    const std::uint64_t at = headerAt + headerBytes;
-    if (bytes.size() - at < 8) {
-        throw ReplayError(path, at, "the data ends inside the header's checksum");
-    }
-    std::uint64_t sum;
-    std::memcpy(&sum, bytes.data() + at, 8);
-    if (sum != checksum(header)) {
-        throw ReplayError(path, headerAt, "the header is damaged (its checksum does not match)");
     }
     return at + 8;
 }

@@ -679,26 +679,26 @@ toml::table parseToml(const std::string& path, const std::string& text) {
     }
 }
 
-std::string readScenarioFile(const std::string& path) {
+std::string readScenarioFile(const std::string& path, const std::string& what) {
     struct stat st {};
     if (::stat(path.c_str(), &st) != 0) {
         throw ScenarioError(path, 0, 0,
-                            "cannot open the scenario: no such file (or a demo name: see `tumble list`)");
+                            "cannot open " + what + ": no such file" +
+                                (what == "the scenario" ? " (or a demo name: see `tumble list`)" : ""));
     }
     if (!S_ISREG(st.st_mode)) {
-        throw ScenarioError(path, 0, 0, "the scenario is not a regular file");
+        throw ScenarioError(path, 0, 0, what + " is not a regular file");
     }
     if (static_cast<std::uint64_t>(st.st_size) > Limits::kMaxFileBytes) {
         throw ScenarioError(path, 0, 0,
-                            "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
-                                " MiB");
+                            what + " is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
     }
     if (st.st_size == 0) {
         return ""; // nothing to read (and /proc's files, which say 0, may block a read forever)
     }
     std::ifstream in(path, std::ios::binary);
     if (!in) {
-        throw ScenarioError(path, 0, 0, "cannot open the scenario for reading");
+        throw ScenarioError(path, 0, 0, "cannot open " + what + " for reading");
     }
     // in blocks, to the end or one byte past the limit (the file may have grown since stat); a buffer of
     // the limit's size, cleared on every call, cost a millisecond a load, which a sweep of short runs paid
@@ -713,8 +713,7 @@ std::string readScenarioFile(const std::string& path) {
     }
     if (text.size() > Limits::kMaxFileBytes) {
         throw ScenarioError(path, 0, 0,
-                            "the scenario is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) +
-                                " MiB");
+                            what + " is larger than " + std::to_string(Limits::kMaxFileBytes >> 20) + " MiB");
     }
     return text;
 }

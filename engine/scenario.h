@@ -30,8 +30,9 @@ struct Scenario {
     std::vector<EventDef> events; ///< sorted by step, then file order
 };
 
-/// Reads a scenario file. Throws ScenarioError (file named, no line) when it cannot be read.
-std::string readScenarioFile(const std::string& path);
+/// Reads a scenario file (or another TOML file: `what` is how the messages name it). Throws ScenarioError
+/// (file named, no line) when it cannot be read.
+std::string readScenarioFile(const std::string& path, const std::string& what = "the scenario");
 
 /// Parses TOML text; a syntax error is a ScenarioError at its line and column (other files in TOML, such
 /// as sweep files, are read with it too).

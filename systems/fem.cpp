@@ -203,6 +203,27 @@ TetMesh sphereTets(const Vec3& centre, double radius, int cells) {
     return mesh;
 }
 
+namespace {
+
+/// An element listed twice (the same four nodes, in any order) would count its mass and stiffness twice
+/// there: refused at its second line, naming the first.
+void refuseRepeatedElements(const TetMesh& mesh) {
+    std::map<std::array<std::uint32_t, 4>, std::size_t> seen;
+    for (std::size_t e = 0; e < mesh.tets.size(); ++e) {
+        std::array<std::uint32_t, 4> key = mesh.tets[e];
+        std::sort(key.begin(), key.end());
+        const auto [it, fresh] = seen.emplace(key, e);
+        if (!fresh) {
+            throw std::runtime_error(elementName(mesh, e) + " repeats element " +
+                                     std::to_string(it->second + mesh.firstNode) + " (line " +
+                                     std::to_string(mesh.lines[it->second]) +
+                                     "): the same four nodes; list each element once");
+        }
+    }
+}
+
+} // namespace
+
 TetMesh readTetGen(const std::filesystem::path& ele, const Vec3& offset, std::size_t maxNodes,
                    std::size_t maxTets) {
     std::filesystem::path nodePath = ele;
@@ -292,8 +313,31 @@ TetMesh readTetGen(const std::filesystem::path& ele, const Vec3& offset, std::si
         mesh.tets.push_back(t);
         mesh.lines.push_back(tets.number);
     }
+    refuseRepeatedElements(mesh);
     return mesh;
 }
+
+namespace {
+
+/// The message for element e, inverted at rest: how many of the mesh's elements are (all of them: the
+/// file lists every element the other way round).
+std::string invertedAtRest(const TetMesh& mesh, std::size_t e) {
+    std::size_t inverted = 0;
+    for (const auto& t : mesh.tets) {
+        inverted += edges(mesh.nodes, t).determinant() < 0.0 ? 1 : 0;
+    }
+    const std::string what = elementName(mesh, e) +
+                             " is inverted at rest: its fourth corner lies on the side its first three turn "
+                             "clockwise about, where "
+                             "TetGen's order puts it on the other (swap two of its corners)";
+    if (inverted == mesh.tets.size()) {
+        return what + "; every element of the mesh is, as if the file listed them all the other way round";
+    }
+    return what + "; " + std::to_string(inverted) + " of the mesh's " + std::to_string(mesh.tets.size()) +
+           " elements are";
+}
+
+} // namespace
 
 SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
                        const std::vector<std::uint32_t>& pins) {
@@ -325,9 +369,7 @@ SpringNetwork buildFem(const TetMesh& mesh, const FemMaterial& material,
                                         std::to_string(volume) + " m^3 is nearly zero for its size");
         }
         if (volume < 0.0) {
-            throw std::invalid_argument(elementName(mesh, e) +
-                                        " is inverted at rest: its corners are listed the other way round "
-                                        "from the mesh's other elements");
+            throw std::invalid_argument(invertedAtRest(mesh, e));
         }
         const Matrix3 inverse = d.inverse();
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();

@@ -21,6 +21,7 @@
 #include <exception>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -34,8 +35,9 @@ constexpr std::int64_t kMaxClothVertices = 512 * 512;
 constexpr double kMaxSpeed = 1e4; // m/s: beyond it a network has blown up
 
 /// Keys every network takes: integrator, drag, contact and solver settings.
-void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrator) {
-    const std::string name = r.choice("integrator", defaultIntegrator, kIntegratorNames);
+void readCommon(TableReader& r, SpringNetwork& net, const char* defaultIntegrator,
+                std::span<const std::string_view> integrators = kIntegratorNames) {
+    const std::string name = r.choice("integrator", defaultIntegrator, integrators);
     for (std::size_t i = 0; i < std::size(kIntegratorNames); ++i) {
         if (kIntegratorNames[i] == name) {
             net.integrator = static_cast<Integrator>(i);
@@ -392,11 +394,9 @@ void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
     } catch (const std::invalid_argument& e) {
         r.fail("mesh", r.where() + ": " + e.what());
     }
-    readCommon(r, net, "implicit_euler");
-    if (net.integrator != Integrator::ImplicitEuler && net.integrator != Integrator::SymplecticEuler) {
-        r.fail("integrator",
-               "an fem body in " + r.where() + " is advanced by \"implicit_euler\" or \"symplectic_euler\"");
-    }
+    // an fem body is advanced by these two alone (the integrator's error lists just them)
+    constexpr std::string_view kFemIntegrators[] = {"implicit_euler", "symplectic_euler"};
+    readCommon(r, net, "implicit_euler", kFemIntegrators);
     if (net.doublePrecisionSolve) {
         r.fail("solver_precision", "an fem body solves in float: leave out 'solver_precision'");
     }

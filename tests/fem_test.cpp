@@ -364,7 +364,9 @@ TEST(Fem, BadMaterialsAndPinsAreRefusedAtTheirLine) {
     expectRefused(femScene("poisson = -1.0\n"), "-1 < poisson < 0.5");
     expectRefused(femScene("pin = \"up\"\n"), "'top', 'bottom'");
     expectRefused(femScene("mesh = \"sphere\"\npin = \"top\"\n"), "the mesh is not a box");
-    expectRefused(femScene("integrator = \"rk4\"\n"), "implicit_euler");
+    // the two an fem body takes, and no other (the list named all five springs' integrators)
+    expectRefused(femScene("integrator = \"rk4\"\n"), "expected one of: implicit_euler, symplectic_euler");
+    expectRefused(femScene("integrator = \"implict_euler\"\n"), "(did you mean 'implicit_euler'?)");
     expectRefused(femScene("mesh = \"cube\"\n"), "TetGen .ele");
     expectRefused(femScene("resolution = [2.5, 2, 2]\n"), "whole numbers");
     expectRefused(femScene("youngs = 1.0\n"), "youngs");
@@ -396,9 +398,21 @@ TEST(Fem, TetGenFilesAreReadAndTheirFaultsLocated) {
                   std::string::npos)
             << e.what();
     }
-    const std::string inverted = writeTetGen("inverted", nodes, "1 4 0\n1 1 3 2 4\n");
-    EXPECT_THROW(buildFem(readTetGen(inverted, {}, 100, 100), material(1e5, 0.3, 1000.0), {}),
-                 std::invalid_argument);
+    // an inverted element is named, with how many of the mesh's are (all: the file's order is reversed)
+    auto inverted = [&](const std::string& stem, const std::string& e) {
+        try {
+            buildFem(readTetGen(writeTetGen(stem, nodes, e), {}, 100, 100), material(1e5, 0.3, 1000.0), {});
+        } catch (const std::invalid_argument& error) {
+            return std::string(error.what());
+        }
+        return std::string("accepted");
+    };
+    const std::string one = inverted("inverted", "2 4 0\n1 1 2 3 4\n2 1 2 3 5\n");
+    EXPECT_NE(one.find("inverted.ele:3: element 2 (nodes 1, 2, 3, 5) is inverted at rest"), std::string::npos)
+        << one;
+    EXPECT_NE(one.find("1 of the mesh's 2 elements are"), std::string::npos) << one;
+    const std::string all = inverted("reversed", "2 4 0\n1 1 3 2 4\n2 1 2 3 5\n");
+    EXPECT_NE(all.find("every element of the mesh is"), std::string::npos) << all;
     auto refusal = [&](const std::string& stem, const std::string& n, const std::string& e) {
         try {
             readTetGen(writeTetGen(stem, n, e), {}, 100, 100);
@@ -415,6 +429,11 @@ TEST(Fem, TetGenFilesAreReadAndTheirFaultsLocated) {
     EXPECT_NE(refusal("badline", "5 3 0 0\n1 0 0 0\n2 1 0 x\n", "1 4 0\n1 1 2 3 4\n").find("badline.node:3:"),
               std::string::npos);
     EXPECT_NE(refusal("huge", "5000 3 0 0\n", "1 4 0\n").find("5000 nodes; at most 100"), std::string::npos);
+    // an element listed twice, in another order (its mass and stiffness would count twice)
+    const std::string twice = refusal("twice", nodes, "3 4 0\n1 1 2 3 4\n2 1 3 2 5\n3 2 3 1 4\n");
+    EXPECT_NE(twice.find("twice.ele:4: element 3 (nodes 2, 3, 1, 4) repeats element 1 (line 2)"),
+              std::string::npos)
+        << twice;
 }
 
 } // namespace

@@ -244,6 +244,12 @@ TEST(SweepPlan, BadInputIsLocatedWithADidYouMean) {
         {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"chain.rope.segments\"\ninteger = true\nvalues = "
          "[1]\n",
          "listed values are as written", 5},
+        // a value no key takes (it was set as a bare word, and the scenario said "not a string")
+        {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"chain.rope.stiffness\"\nvalues = [1.0, nan]\n",
+         "values: nan is not finite", 5},
+        {"[sweep]\nscenario = \"rope\"\n[[axis]]\nkey = \"chain.transform.position\"\nvalues = [[0.0, "
+         "inf, 0.0]]\n",
+         "is not finite", 5},
     };
     for (const Case& c : cases) {
         try {
@@ -253,6 +259,14 @@ TEST(SweepPlan, BadInputIsLocatedWithADidYouMean) {
             EXPECT_EQ(e.line(), c.line) << e.what();
             EXPECT_NE(std::string(e.what()).find(c.fragment), std::string::npos) << e.what();
         }
+    }
+    // a sweep file that is not there is called that (it was "cannot open the scenario")
+    try {
+        readSweep(test::tempPath("no_such_sweep.toml"));
+        ADD_FAILURE() << "a missing sweep file was read";
+    } catch (const ScenarioError& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot open the sweep file: no such file"), std::string::npos)
+            << e.what();
     }
 }
 
@@ -526,6 +540,14 @@ TEST(SweepLocal, ShardsRunTheirShareAndMergeMakesTheTable) {
         if (i == 1) {
             const auto status = runTumble({"sweep", file, "--status", "--out", sharded});
             EXPECT_NE(status.out.find("7 cases: 2 not run, 5 ok"), std::string::npos) << status.out;
+            // a case under way (its folder made, no result yet) was counted as not run
+            std::filesystem::create_directories(sharded + "/cases/00002");
+            const auto running = runTumble({"sweep", file, "--status", "--out", sharded});
+            EXPECT_NE(
+                running.out.find("7 cases: 1 not run, 5 ok, 1 started (running, or stopped before its end)"),
+                std::string::npos)
+                << running.out;
+            std::filesystem::remove(sharded + "/cases/00002");
             EXPECT_EQ(runTumble({"sweep", file, "--merge", "--out", sharded}).exitCode, 1);
         }
     }
