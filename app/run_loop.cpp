@@ -22,7 +22,7 @@ extern "C" void onStopSignal(int) {
 // The StopSignals alive and the handlers from before the first of them. The handlers are the process's, not
 // a thread's: runs that overlap (two Python threads each verifying a replay) share one installation, put
 // back when the last of them ends, whichever order they end in (each putting back what it found left ours
-// installed when the first to start ended last).
+// installed when the first to start ended first: the second then put back the first's, ours).
 std::mutex g_stopMutex;
 int g_stopUsers = 0;
 struct sigaction g_previousInt {

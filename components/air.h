@@ -82,6 +82,7 @@ struct Air {
     bool solidChanged = false;            ///< the solver's levels must be made again for the new cells
     double divergenceMax = 0.0;           ///< 1/s, the largest cell divergence after the last projection
     std::uint32_t lastIterations = 0;     ///< the last projection's CG iterations
+    bool frozen = false;                  ///< blew up: no longer stepped, its velocity zero
     AirScratch scratch;
 
     std::size_t cellCount() const {

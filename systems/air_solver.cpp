@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <iterator>
+#include <limits>
 #include <type_traits>
 
 #include <emmintrin.h>
@@ -814,7 +815,7 @@ void advectFields(Air& air, const Lattices& velocity, const Lattice& from, const
 /// The most a cell's faces carry out of it, or into it, a step, in cells (the sum of its outward, or inward,
 /// face speeds times dt over dx): what the conserving advection's substeps keep at one or under (out: no
 /// cell gives more than it has; in as well: every face's own speed is then within a cell a substep, which
-/// keeps Lax-Wendroff's factor 1 - c |s| from going negative).
+/// keeps Lax-Wendroff's factor 1 - c |s| from going negative). Infinite when a face's speed is not finite.
 double largestOutflow(const Air& air, double scale, WorkerPool& pool) {
     const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
     const std::size_t sv = std::size_t(nx), sw = std::size_t(nx) * std::size_t(ny);
@@ -830,7 +831,7 @@ double largestOutflow(const Air& air, double scale, WorkerPool& pool) {
                            air.u.data() + std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k);
                        const float* v = air.v.data() + sv * (std::size_t(j) + std::size_t(ny + 1) * k);
                        const float* w = air.w.data() + sw * std::size_t(k) + sv * std::size_t(j);
-                       __m128 most4 = _mm_setzero_ps();
+                       __m128 most4 = _mm_setzero_ps(), unordered = _mm_setzero_ps();
                        int i = 0;
                        for (; i + 4 <= nx; i += 4) {
                            const __m128 u0 = _mm_loadu_ps(u + i), u1 = _mm_loadu_ps(u + i + 1);
@@ -843,10 +844,12 @@ double largestOutflow(const Air& air, double scale, WorkerPool& pool) {
                                _mm_add_ps(_mm_add_ps(ahead(u0), back(u1)), _mm_add_ps(ahead(v0), back(v1))),
                                _mm_add_ps(ahead(w0), back(w1)));
                            most4 = _mm_max_ps(most4, _mm_max_ps(out, in));
+                           unordered = _mm_or_ps(unordered, _mm_cmpunord_ps(out, in));
                        }
                        float lanes[4];
                        _mm_storeu_ps(lanes, most4);
                        float most = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
+                       bool notFinite = _mm_movemask_ps(unordered) != 0;
                        for (; i < nx; ++i) {
                            const float out = ((std::max(-u[i], 0.0f) + std::max(u[i + 1], 0.0f)) +
                                               (std::max(-v[i], 0.0f) + std::max(v[i + sv], 0.0f))) +
@@ -855,8 +858,11 @@ double largestOutflow(const Air& air, double scale, WorkerPool& pool) {
                                              (std::max(v[i], 0.0f) + std::max(-v[i + sv], 0.0f))) +
                                             (std::max(w[i], 0.0f) + std::max(-w[i + sw], 0.0f));
                            most = std::max(most, std::max(out, in));
+                           notFinite = notFinite || std::isnan(out) || std::isnan(in);
                        }
-                       return Largest{double(most) * scale};
+                       // a NaN, which a maximum passes over, as an infinite flow
+                       return Largest{notFinite ? std::numeric_limits<double>::infinity()
+                                                : double(most) * scale};
                    })
         .value;
 }
@@ -1021,16 +1027,19 @@ void limiterRatios(const Air& air, const float* field, const float* low, float* 
                    WorkerPool& pool) {
     forCells(air, pool, [&air, field, low, plus, minus, c](const CellAt& cell, auto where) {
         const Around a = aroundOf(air, field, cell, where);
-        const Around l = aroundOf(air, low, cell, where);
         const std::array<float, 6> in = antidiffusiveInflows(a, facesOf(air, cell), c);
+        // the bounds from the cells of the box alone (a side's outside, past a wall, is no value the cell
+        // may reach; clean air coming in through an open side is in the upwind result already)
+        const Around around = aroundOf(air, field, cell, where, field[cell.at]);
+        const Around l = aroundOf(air, low, cell, where, low[cell.at]);
         const float gain = ((std::max(in[0], 0.0f) + std::max(in[1], 0.0f)) +
                             (std::max(in[2], 0.0f) + std::max(in[3], 0.0f))) +
                            (std::max(in[4], 0.0f) + std::max(in[5], 0.0f));
         const float loss = ((std::min(in[0], 0.0f) + std::min(in[1], 0.0f)) +
                             (std::min(in[2], 0.0f) + std::min(in[3], 0.0f))) +
                            (std::min(in[4], 0.0f) + std::min(in[5], 0.0f));
-        const float highest = std::max(highestOf(a), highestOf(l));
-        const float lowest = std::min(lowestOf(a), lowestOf(l));
+        const float highest = std::max(highestOf(around), highestOf(l));
+        const float lowest = std::min(lowestOf(around), lowestOf(l));
         plus[cell.at] = gain > 0.0f ? std::min(1.0f, (highest - l.here) / (c * gain)) : 0.0f;
         minus[cell.at] = loss < 0.0f ? std::min(1.0f, (lowest - l.here) / (c * loss)) : 0.0f;
     });
@@ -1089,14 +1098,17 @@ void carryCellsConserving(Air& air, double outflow, double scale, WorkerPool& po
     }
 }
 
-void advect(Air& air, double dt, WorkerPool& pool) {
+bool advect(Air& air, double dt, WorkerPool& pool) {
     AirScratch& s = air.scratch;
     const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
     const Lattices velocity = velocityLattices(air);
     const auto scale = float(dt / air.cell);
-    // the cells first, while the faces still hold the step's (divergence-free) velocity
     const double outflow = largestOutflow(air, dt / air.cell, pool);
-    if (outflow <= double(kMostConservingSubsteps)) { // false for an infinite speed too
+    if (!(outflow * air.cell <= kMostAirSpeed * dt)) {
+        return false; // blown up: not advected (a NaN position sent the trilinear gathers past the arrays)
+    }
+    // the cells first, while the faces still hold the step's (divergence-free) velocity
+    if (outflow <= double(kMostConservingSubsteps)) {
         carryCellsConserving(air, outflow, dt / air.cell, pool);
     } else {
         advectFields<3>(air, velocity, {air.smoke.data(), nx, ny, nz, 0.5f, 0.5f, 0.5f}, air.heat.data(),
@@ -1110,6 +1122,7 @@ void advect(Air& air, double dt, WorkerPool& pool) {
     air.u.swap(s.u);
     air.v.swap(s.v);
     air.w.swap(s.w);
+    return true;
 }
 
 /// Buoyancy on every face inside the box: along gravity's direction, smoke_weight s - heat_lift (T - mean
@@ -1560,13 +1573,16 @@ double airDivergenceMax(const Air& air, WorkerPool& pool) {
            air.cell;
 }
 
-void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
-    advectAir(air, dt, pool);
+bool stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
+    if (!advectAir(air, dt, pool)) {
+        return false;
+    }
     finishAirStep(air, gravity, dt, pool);
+    return true;
 }
 
-void advectAir(Air& air, double dt, WorkerPool& pool) {
-    advect(air, dt, pool);
+bool advectAir(Air& air, double dt, WorkerPool& pool) {
+    return advect(air, dt, pool);
 }
 
 void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {

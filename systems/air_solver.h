@@ -6,10 +6,11 @@
 //      carried back along the same velocity and half the difference from the start taken off, clamped to
 //      the values the first sample mixed (second order where the field is smooth; twice the cost). The
 //      cells' smoke and heat are carried by finite volumes, so that the totals change only through open
-//      sides: each face passes its flow's share of the cell upwind of it (first-order upwind), in as many
-//      substeps as keep every cell's flows within one cell a substep; with "maccormack", Lax-Wendroff's
-//      fluxes limited by flux-corrected transport (Zalesak 1979: no new extremum). A flow of more than 64
-//      cells a step takes the semi-Lagrangian step for them too (not conserving);
+//      sides (and by sources, dissipation and bodies taking cells): each face passes its flow's share of the
+//      cell upwind of it (first-order upwind), in as many substeps as keep every cell's flows within one cell
+//      a substep; with "maccormack", Lax-Wendroff's fluxes limited by flux-corrected transport (Zalesak 1979:
+//      no new extremum). A flow of more than 64 cells a step takes the semi-Lagrangian step for them too (not
+//      conserving);
 //   2. smoke's dissipation, implicit: s / (1 + dt d);
 //   3. forces: buoyancy along gravity, (smoke_weight s - heat_lift (T - mean T)) per unit of gravity's
 //      direction (a uniformly warm atmosphere feels none: Boussinesq, after Fedkiw, Stam and Jensen 2001),
@@ -31,12 +32,17 @@ namespace tumble {
 /// Makes the fields (zero) and the solver's levels for the air's grid.
 void initAir(Air& air);
 
+/// A cell whose faces carry more than this in or out (m/s, summed over its faces), or a face speed that is
+/// not finite: the grid has blown up.
+constexpr double kMostAirSpeed = 1e4;
+
 /// One step of dt (the steps above). `gravity` gives buoyancy its direction (straight down when zero).
-void stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
+/// False, having done nothing, when the grid has blown up (kMostAirSpeed).
+bool stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
 /// stepAir in two parts, for the sources to feed between them: step 1 (advection), then steps 2 to 5. A
 /// source fed before the advection was carried off by it: a jet faster than its nozzle's size a step left
-/// nothing behind.
-void advectAir(Air& air, double dt, WorkerPool& pool);
+/// nothing behind. advectAir is false, having done nothing, when the grid has blown up.
+bool advectAir(Air& air, double dt, WorkerPool& pool);
 void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
 
 /// The explicit viscosity's substeps a step of dt takes (kMostViscositySubsteps + 1 when it would take

@@ -4,6 +4,7 @@
 #include "engine/parallel.h"
 #include "engine/profiler.h"
 #include "engine/retune.h"
+#include "engine/run_report.h"
 #include "engine/scene.h"
 #include "engine/transform.h"
 #include "systems/air_solver.h"
@@ -372,12 +373,38 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
     }
 }
 
+/// A grid that blew up (air_solver.h, kMostAirSpeed) is frozen, still, and says so once: its velocity
+/// zero (what moves through it feels no air), non-finite smoke and heat cleared; the rest of the scene runs
+/// on and the run ends as a failure. (Stepped on, its next advection sent NaN positions into the gathers,
+/// which read past the arrays: the run crashed.)
+void freezeAir(World& world, const StepContext& ctx, Entity grid, Air& air) {
+    air.frozen = true;
+    for (std::vector<float>* f : {&air.u, &air.v, &air.w}) {
+        std::fill(f->begin(), f->end(), 0.0f);
+    }
+    for (std::vector<float>* f : {&air.smoke, &air.heat}) {
+        for (float& x : *f) {
+            x = std::isfinite(x) ? x : 0.0f;
+        }
+    }
+    const Name* name = world.tryGet<Name>(grid);
+    world.resource<RunReport>().failures.push_back(
+        "air '" + (name ? name->value : std::string("?")) + "' blew up at frame " +
+        std::to_string(ctx.frame) + " (t = " + std::to_string(ctx.time) + " s): a cell's flow passed " +
+        std::to_string(int(kMostAirSpeed)) +
+        " m/s or was not finite; it is frozen, still, from here on. Remedy: weaker sources, buoyancy or "
+        "vorticity, or a smaller step");
+}
+
 void advanceAir(World& world, const StepContext& ctx) {
     const auto& g = world.resource<SceneDef>().gravity;
     const Vec3 gravity{g[0], g[1], g[2]};
     std::vector<const RigidBody*> bodies;
     world.view<const RigidBody>().each([&](Entity, const RigidBody& b) { bodies.push_back(&b); });
     world.view<Air>().each([&](Entity grid, Air& air) {
+        if (air.frozen) {
+            return;
+        }
         {
             ProfileStage stage(ctx.profiler, "air.bodies");
             voxeliseBodies(air, bodies);
@@ -385,7 +412,10 @@ void advanceAir(World& world, const StepContext& ctx) {
         // timed as three stages, each once a step: the advection, the sources (after it: air_solver.h, in
         // the order they were loaded), then forces, viscosity and the projection
         std::optional<ProfileStage> stage(std::in_place, ctx.profiler, "air.advect");
-        advectAir(air, ctx.dt, poolOr(ctx.pool));
+        if (!advectAir(air, ctx.dt, poolOr(ctx.pool))) {
+            freezeAir(world, ctx, grid, air);
+            return;
+        }
         stage.emplace(ctx.profiler, "air.sources");
         world.view<const Transform, const AirSource>().each(
             [&](Entity, const Transform& t, const AirSource& s) {

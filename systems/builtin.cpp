@@ -67,7 +67,7 @@ const std::vector<SystemEntry>& builtinSystems() {
         {"water", Phase::Fixed, stepWater,
          accessOf<Reads<SceneDef, Name, Transform>, Writes<Water, RigidBody, RigidBody2D, RunReport>>()},
         {"air", Phase::Fixed, advanceAir,
-         accessOf<Reads<SceneDef, Transform, AirSource, RigidBody>, Writes<Air>>()},
+         accessOf<Reads<SceneDef, Transform, AirSource, RigidBody, Name>, Writes<Air, RunReport>>()},
         {"render", Phase::Frame, renderWorld,
          accessOf<Reads<SceneDef, SpringNetwork, RigidBody, RigidBody2D, Transform, Water, ParticleEmitter,
                         Air, RenderHistory, PoseHistory>,

@@ -26,8 +26,8 @@ void (*handlerOf(int signal))(int) {
 
 // Two runs whose StopSignals overlap and end out of order (two Python threads each verifying a replay): a
 // signal asks both to stop, and when both have ended the program's own handlers are back. Seen to fail
-// with each StopSignal putting back what it found: the first to start ended last and put back the other's,
-// which is ours (Ctrl-C then never reached the program).
+// with each StopSignal putting back what it found: the first to start ended first, and the second then put
+// back what it had found, the first's, which is ours (Ctrl-C then never reached the program).
 TEST(StopSignal, RunsThatOverlapPutBackTheProgramsHandlersWhicheverEndsLast) {
     struct sigaction own {
     }, before{}, beforeTerm{};
