@@ -208,7 +208,11 @@ std::vector<SlotStats> Profiler::slotStats() const {
         st.name = s.name;
         st.phase = s.phase;
         st.isPhase = s.isPhase;
-        st.stageOf = s.stageOf;
+        // a stage of no system is listed on its own, under its whole name (not as a stage of the row above)
+        const bool orphan = std::none_of(m_slots.begin(), m_slots.end(), [&](const Slot& owner) {
+            return owner.stageOf.empty() && !owner.isPhase && owner.name == s.stageOf;
+        });
+        st.stageOf = orphan ? std::string() : s.stageOf;
         st.calls = s.calls;
         st.meanMs = s.calls ? static_cast<double>(s.sumNs) * 1e-6 / static_cast<double>(s.calls) : 0.0;
         st.maxMs = static_cast<double>(s.maxNs) * 1e-6;

@@ -29,7 +29,8 @@ struct SlotStats {
     std::string name;
     Phase phase = Phase::Fixed;
     bool isPhase = false; ///< true for a whole-phase timer, false for a system
-    std::string stageOf;  ///< for a stage inside a system ("springs.solve"): the system ("springs")
+    /// for a stage inside a system ("springs.solve"): the system ("springs"); empty for a stage of no system
+    std::string stageOf;
     std::uint64_t calls = 0;
     double meanMs = 0.0; ///< over every call of the run
     double p50Ms = 0.0;  ///< over the calls still in the ring buffer

@@ -561,7 +561,7 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
     if (s.pinnedWhenBuilt != net.pinned) {
         findFemPinnedBlocks(net, s);
     }
-    std::optional<ProfileStage> stage(std::in_place, env.profiler, "fem.assemble");
+    std::optional<ProfileStage> stage(std::in_place, env.profiler, "springs.fem_assemble");
     const double alpha = fem.massDamping, beta = fem.stiffnessDamping;
     const double c = h * h + h * beta; // the stiffness's weight in the system
     const __m128 ratio = _mm_set1_ps(float(fem.lambda / fem.mu));
@@ -629,12 +629,15 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
             s.rhsFloat[i] = Vec3T<float>::from(s.rhs[i]);
         }
     }
-    stage.emplace(env.profiler, "fem.solve");
+    stage.emplace(env.profiler, "springs.fem_solve");
     s.multigrid.update(a, pool);
     SolveStats stats = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
                                 net.cgMaxIterations, s.pcg, pool);
     if (releasePulling(net, a, s.dv, s.restingWeights, s.restingBlocks)) {
-        // again without the contacts that held a leaving node (the preconditioner as it was: still SPD)
+        // again without the contacts that held a leaving node, the preconditioner made again for it: the one
+        // made with them took the released nodes for stiffly held, and the second solve took 10-36 iterations
+        // against the first's 6 (the TetGen blob of fem_jelly; 1-6 with it made again, which costs less)
+        s.multigrid.update(a, pool);
         const SolveStats again = solvePcg(a, s.rhsFloat, s.dv, s.multigrid, net.pinned, net.cgTolerance,
                                           net.cgMaxIterations, s.pcg, pool);
         stats.iterations += again.iterations;

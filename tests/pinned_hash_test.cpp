@@ -30,7 +30,7 @@ const std::map<std::string, std::uint64_t>& pinned() {
         {"chimney", 0x86e66ac75dd3dfefull},     {"contraption2d", 0xf68f4c5c3b907a05ull},
         {"crane", 0x56c11292c606c702ull},       {"curtain", 0x2b806649d90cce2aull},
         {"drape", 0x38e0a50832ce2409ull},       {"drape_sphere", 0xdf629cdbcd4ad5d6ull},
-        {"fan_flag", 0x195ca688db5d6eeeull},    {"fem_jelly", 0xcbbc9e7a9e57a472ull},
+        {"fan_flag", 0x195ca688db5d6eeeull},    {"fem_jelly", 0x9e703ce775824432ull},
         {"fireworks", 0xea8c13de27cd72c5ull},   {"flag", 0xbeea6abe48feb455ull},
         {"fountain", 0xe26792894f3d3a68ull},    {"harbour", 0x8a137bc5bee95da3ull},
         {"integrators", 0x462825650b0a4cb7ull}, {"jelly", 0x7d570d3c1f75e29bull},
