@@ -76,9 +76,10 @@ struct Air {
     std::vector<float> u, v, w;     ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
     std::vector<float> smoke, heat; ///< density (1 = thick), degrees above ambient; nx ny nz each
     std::vector<float> pressure;    ///< the last projection's (scaled: p dt / rho), the next one's guess
-    /// per cell: 1 inside a rigid body (voxelised each step), which the air flows round; empty: none
+    /// per cell: 1 inside a rigid body (voxelised each step), which the air flows round, 2 in a driving
+    /// source (systems/air_system.h), 0 air; empty: none
     std::vector<std::uint8_t> solid;
-    std::vector<AirFixedFace> fixedFaces; ///< the faces of the solid cells, at their bodies' velocities
+    std::vector<AirFixedFace> fixedFaces; ///< the faces of the solid cells, at their owners' velocities
     bool solidChanged = false;            ///< the solver's levels must be made again for the new cells
     double divergenceMax = 0.0;           ///< 1/s, the largest cell divergence after the last projection
     std::uint32_t lastIterations = 0;     ///< the last projection's CG iterations

@@ -230,7 +230,9 @@ void shapeLevels(Air& air) {
             if (air.solid.empty()) {
                 std::fill(level.solid.begin(), level.solid.end(), std::uint8_t(0));
             } else {
-                level.solid = air.solid;
+                // a body's cells (1) and a driving source's (2) alike: out of the pressure problem
+                std::transform(air.solid.begin(), air.solid.end(), level.solid.begin(),
+                               [](std::uint8_t s) { return std::uint8_t(s != 0 ? 1 : 0); });
             }
         } else {
             const AirLevel& fine = levels[l - 1];
@@ -1587,9 +1589,9 @@ bool advectAir(Air& air, double dt, WorkerPool& pool) {
 
 void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     if (!air.solid.empty()) {
-        // nothing is carried into a body
+        // nothing is carried into a body (a driving source's cells keep what they hold and are fed)
         for (std::size_t c = 0; c < air.solid.size(); ++c) {
-            if (air.solid[c]) {
+            if (air.solid[c] == 1) {
                 air.smoke[c] = 0.0f;
                 air.heat[c] = 0.0f;
             }

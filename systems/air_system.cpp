@@ -195,9 +195,61 @@ void hashAir(const Air& a, Hasher& h) {
     h.add(a.pressure);
 }
 
+/// Calls fn(i, j, k) for each cell of a source at `at`: those whose centres are inside its shape, else (a
+/// shape smaller than a cell) the cell holding `at` when it is in the box.
+template <class F>
+void forSourceCells(const Air& air, const AirSource& source, const Vec3& at, F&& fn) {
+    const Vec3 reach = source.sphere ? Vec3{source.radius, source.radius, source.radius} : source.halfExtents;
+    const Vec3 origin = air.origin();
+    int lo[3], hi[3];
+    const double from[3] = {at.x - reach.x - origin.x, at.y - reach.y - origin.y, at.z - reach.z - origin.z};
+    const double to[3] = {at.x + reach.x - origin.x, at.y + reach.y - origin.y, at.z + reach.z - origin.z};
+    for (std::size_t a = 0; a < 3; ++a) {
+        lo[a] = int(std::clamp(std::floor(from[a] / air.cell) - 1.0, 0.0, double(air.cells[a])));
+        hi[a] = int(std::clamp(std::ceil(to[a] / air.cell) + 1.0, 0.0, double(air.cells[a])));
+    }
+    bool any = false;
+    for (int k = lo[2]; k < hi[2]; ++k) {
+        for (int j = lo[1]; j < hi[1]; ++j) {
+            for (int i = lo[0]; i < hi[0]; ++i) {
+                if (inside(source, origin + Vec3{i + 0.5, j + 0.5, k + 0.5} * air.cell - at)) {
+                    fn(i, j, k);
+                    any = true;
+                }
+            }
+        }
+    }
+    if (!any && airContains(air, at)) {
+        int c[3];
+        const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
+        for (std::size_t a = 0; a < 3; ++a) {
+            c[a] = int(std::clamp(std::floor(local[a] / air.cell), 0.0, double(air.cells[a] - 1)));
+        }
+        fn(c[0], c[1], c[2]);
+    }
+}
+
+/// The index of the face along `axis` numbered (f[0], f[1], f[2]) (f[axis] from 0 to cells[axis]).
+std::size_t faceIndex(const Air& air, int axis, const std::array<int, 3>& f) {
+    std::array<int, 3> n = air.cells;
+    n[std::size_t(axis)] += 1;
+    return std::size_t(f[0]) +
+           std::size_t(n[0]) * (std::size_t(f[1]) + std::size_t(n[1]) * std::size_t(f[2]));
+}
+
 } // namespace
 
 void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
+    const auto smoke = float(source.smoke * dt), heat = float(source.heat * dt);
+    forSourceCells(air, source, at, [&](int i, int j, int k) {
+        air.smoke[air.at(i, j, k)] += smoke;
+        air.heat[air.at(i, j, k)] += heat;
+    });
+    if (!source.drives) {
+        return;
+    }
+    // the faces inside: each component on its own faces (the box's sides' faces too); a shape with no face
+    // inside (smaller than a cell) drives the faces of its cells
     const Vec3 reach = source.sphere ? Vec3{source.radius, source.radius, source.radius} : source.halfExtents;
     const Vec3 origin = air.origin();
     int lo[3], hi[3];
@@ -208,35 +260,6 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
         lo[a] = int(std::clamp(std::floor(from[a] / air.cell) - 1.0, 0.0, double(air.cells[a])));
         hi[a] = int(std::clamp(std::ceil(to[a] / air.cell) + 1.0, 0.0, double(air.cells[a])));
     }
-    const auto smoke = float(source.smoke * dt), heat = float(source.heat * dt);
-    int fed = 0;
-    for (int k = lo[2]; k < hi[2]; ++k) {
-        for (int j = lo[1]; j < hi[1]; ++j) {
-            for (int i = lo[0]; i < hi[0]; ++i) {
-                const Vec3 p = origin + Vec3{i + 0.5, j + 0.5, k + 0.5} * air.cell;
-                if (inside(source, p - at)) {
-                    air.smoke[air.at(i, j, k)] += smoke;
-                    air.heat[air.at(i, j, k)] += heat;
-                    ++fed;
-                }
-            }
-        }
-    }
-    const bool within = airContains(air, at);
-    int c[3] = {0, 0, 0}; // a shape smaller than a cell: the cell it is in (none when it has left the box)
-    if (fed == 0 && within) {
-        const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
-        for (std::size_t a = 0; a < 3; ++a) {
-            c[a] = int(std::clamp(std::floor(local[a] / air.cell), 0.0, double(air.cells[a] - 1)));
-        }
-        air.smoke[air.at(c[0], c[1], c[2])] += smoke;
-        air.heat[air.at(c[0], c[1], c[2])] += heat;
-    }
-    if (!source.drives) {
-        return;
-    }
-    // the faces inside: each component on its own faces (the box's sides' faces too); a shape with neither
-    // a cell's centre nor a face inside (smaller than a cell) drives the faces of the cell it is in
     std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
     const double speed[3] = {source.velocity.x, source.velocity.y, source.velocity.z};
     int driven = 0;
@@ -250,33 +273,125 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
                                                  k + (a == 2 ? 0.0 : 0.5)} *
                                                 air.cell;
                     if (inside(source, p - at)) {
-                        (*faces[a])[std::size_t(i) +
-                                    std::size_t(n[0]) * (std::size_t(j) + std::size_t(n[1]) * k)] =
-                            float(speed[a]);
+                        (*faces[a])[faceIndex(air, a, {i, j, k})] = float(speed[a]);
                         ++driven;
                     }
                 }
             }
         }
     }
-    if (driven == 0 && fed == 0 && within) {
-        for (int ax = 0; ax < 3; ++ax) {
-            std::array<int, 3> n = air.cells;
-            n[std::size_t(ax)] += 1;
-            for (int side = 0; side < 2; ++side) {
-                std::array<int, 3> f{c[0], c[1], c[2]};
-                f[std::size_t(ax)] += side;
-                (*faces[ax])[std::size_t(f[0]) +
-                             std::size_t(n[0]) * (std::size_t(f[1]) + std::size_t(n[1]) * f[2])] =
-                    float(speed[ax]);
+    if (driven == 0) {
+        forSourceCells(air, source, at, [&](int i, int j, int k) {
+            for (int a = 0; a < 3; ++a) {
+                for (int side = 0; side < 2; ++side) {
+                    std::array<int, 3> f{i, j, k};
+                    f[std::size_t(a)] += side;
+                    (*faces[a])[faceIndex(air, a, f)] = float(speed[a]);
+                }
+            }
+        });
+    }
+}
+
+namespace {
+
+/// A cell's owner in the voxeliser: -1 air, b >= 0 inside body b, kFirstSource - s in driving source s.
+constexpr std::int32_t kFirstSource = -2;
+
+const Vec3& sourceVelocity(const std::vector<HeldSource>& sources, std::int32_t owner) {
+    return sources[std::size_t(kFirstSource - owner)].source->velocity;
+}
+
+/// Marks the cells of each driving source (forSourceCells).
+void markSources(const Air& air, const std::vector<HeldSource>& sources, std::vector<std::int32_t>& owner) {
+    for (std::size_t s = 0; s < sources.size(); ++s) {
+        const auto mark = kFirstSource - std::int32_t(s);
+        forSourceCells(air, *sources[s].source, sources[s].at,
+                       [&](int i, int j, int k) { owner[air.at(i, j, k)] = mark; });
+    }
+}
+
+/// In a grid closed on every side, a source whose held faces would put air into (or take it from) the rest
+/// of the grid (one against a wall, its faces there staying walls) is let go again: the box could not take
+/// that air, and the projection would leave the difference spread over every cell as divergence. Such a
+/// source drives its faces as any does, the projection free to change them.
+void releaseUnbalanced(const Air& air, const std::vector<HeldSource>& sources,
+                       std::vector<std::int32_t>& owner) {
+    if (!std::all_of(air.border.begin(), air.border.end(),
+                     [](AirBorder b) { return b == AirBorder::Closed; })) {
+        return;
+    }
+    for (std::size_t s = 0; s < sources.size(); ++s) {
+        const auto mark = kFirstSource - std::int32_t(s);
+        const Vec3& v = sources[s].source->velocity;
+        const double speed[3] = {v.x, v.y, v.z};
+        double net = 0.0, gross = 0.0; // the held faces' flow into the air's cells
+        forSourceCells(air, *sources[s].source, sources[s].at, [&](int i, int j, int k) {
+            for (int a = 0; a < 3 && owner[air.at(i, j, k)] == mark; ++a) {
+                for (int side = 0; side < 2; ++side) {
+                    std::array<int, 3> m{i, j, k};
+                    m[std::size_t(a)] += side == 0 ? -1 : 1;
+                    if (m[std::size_t(a)] >= 0 && m[std::size_t(a)] < air.cells[std::size_t(a)] &&
+                        owner[air.at(m[0], m[1], m[2])] == -1) {
+                        net += side == 0 ? -speed[a] : speed[a];
+                        gross += std::abs(speed[a]);
+                    }
+                }
+            }
+        });
+        if (std::abs(net) > 1e-6 * gross) {
+            std::replace(owner.begin(), owner.end(), mark, std::int32_t(-1));
+        }
+    }
+}
+
+/// Holds each face of a solid cell that touches the air at its owner's velocity there: the faces across
+/// the surface make the air flow round a body (out of and into a source), those along it drag the air
+/// beside it (no slip). A closed side's faces stay walls.
+void holdSolidFaces(Air& air, const std::vector<const RigidBody*>& bodies,
+                    const std::vector<HeldSource>& sources, const std::vector<std::int32_t>& owner) {
+    const Vec3 origin = air.origin();
+    auto solidAt = [&](int i, int j, int k) {
+        return i < 0 || j < 0 || k < 0 || i >= air.cells[0] || j >= air.cells[1] || k >= air.cells[2] ||
+               owner[air.at(i, j, k)] != -1;
+    };
+    for (int k = 0; k < air.cells[2]; ++k) {
+        for (int j = 0; j < air.cells[1]; ++j) {
+            for (int i = 0; i < air.cells[0]; ++i) {
+                const std::int32_t b = owner[air.at(i, j, k)];
+                if (b == -1 || (solidAt(i - 1, j, k) && solidAt(i + 1, j, k) && solidAt(i, j - 1, k) &&
+                                solidAt(i, j + 1, k) && solidAt(i, j, k - 1) && solidAt(i, j, k + 1))) {
+                    continue; // air, or deep inside
+                }
+                for (std::uint32_t a = 0; a < 3; ++a) {
+                    for (int side = 0; side < 2; ++side) {
+                        std::array<int, 3> f{i, j, k};
+                        f[a] += side; // the face's index along its axis
+                        if ((f[a] == 0 || f[a] == air.cells[a]) &&
+                            air.border[2 * a + std::size_t(side)] == AirBorder::Closed) {
+                            continue;
+                        }
+                        Vec3 at = origin + Vec3{f[0] + 0.5, f[1] + 0.5, f[2] + 0.5} * air.cell;
+                        (a == 0 ? at.x : a == 1 ? at.y : at.z) -= 0.5 * air.cell;
+                        const Vec3 v =
+                            b >= 0 ? bodies[std::size_t(b)]->velocityAt(at) : sourceVelocity(sources, b);
+                        air.fixedFaces.push_back({a, std::uint32_t(faceIndex(air, int(a), f)),
+                                                  float(a == 0   ? v.x
+                                                        : a == 1 ? v.y
+                                                                 : v.z)});
+                    }
+                }
             }
         }
     }
 }
 
-void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
+} // namespace
+
+void voxeliseSolids(Air& air, const std::vector<const RigidBody*>& bodies,
+                    const std::vector<HeldSource>& sources) {
     const std::size_t n = air.cellCount();
-    if (bodies.empty()) {
+    if (bodies.empty() && sources.empty()) {
         air.fixedFaces.clear();
         if (!air.solid.empty()) {
             air.solid.clear();
@@ -284,11 +399,12 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
         }
         return;
     }
-    std::vector<std::int32_t>& owner = air.scratch.owner; // per cell: the body it is inside, the last listed
+    // per cell: the body it is inside (the last listed), else the driving source, else air
+    std::vector<std::int32_t>& owner = air.scratch.owner;
     owner.assign(n, -1);
+    markSources(air, sources, owner);
     const Vec3 origin = air.origin();
     const Vec3 end = origin + Vec3{air.cells[0] * air.cell, air.cells[1] * air.cell, air.cells[2] * air.cell};
-    bool any = false;
     for (std::size_t b = 0; b < bodies.size(); ++b) {
         const RigidBody& body = *bodies[b];
         if (body.shape == ShapeKind::Mesh) {
@@ -313,59 +429,21 @@ void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies) {
                     if (signedDistance(body, origin + Vec3{i + 0.5, j + 0.5, k + 0.5} * air.cell, normal) <
                         0.0) {
                         owner[air.at(i, j, k)] = std::int32_t(b);
-                        any = true;
                     }
                 }
             }
         }
     }
+    releaseUnbalanced(air, sources, owner);
     std::vector<std::uint8_t>& solid = air.scratch.solid; // compared with the last step's, then swapped in
     solid.clear();
     air.fixedFaces.clear();
-    if (any) {
+    if (std::any_of(owner.begin(), owner.end(), [](std::int32_t o) { return o != -1; })) {
         solid.resize(n);
         for (std::size_t c = 0; c < n; ++c) {
-            solid[c] = owner[c] >= 0 ? 1 : 0;
+            solid[c] = owner[c] >= 0 ? 1 : owner[c] == -1 ? 0 : 2;
         }
-        // the faces of every solid cell that touches the air, at the body's velocity there: the faces across
-        // the surface make the air flow round the body, those along it drag the air beside it (no slip)
-        auto solidAt = [&](int i, int j, int k) {
-            return i < 0 || j < 0 || k < 0 || i >= air.cells[0] || j >= air.cells[1] || k >= air.cells[2] ||
-                   owner[air.at(i, j, k)] >= 0;
-        };
-        for (int k = 0; k < air.cells[2]; ++k) {
-            for (int j = 0; j < air.cells[1]; ++j) {
-                for (int i = 0; i < air.cells[0]; ++i) {
-                    const std::int32_t b = owner[air.at(i, j, k)];
-                    if (b < 0 || (solidAt(i - 1, j, k) && solidAt(i + 1, j, k) && solidAt(i, j - 1, k) &&
-                                  solidAt(i, j + 1, k) && solidAt(i, j, k - 1) && solidAt(i, j, k + 1))) {
-                        continue; // air, or deep inside
-                    }
-                    for (std::uint32_t a = 0; a < 3; ++a) {
-                        std::array<int, 3> faces = air.cells;
-                        faces[a] += 1;
-                        for (int side = 0; side < 2; ++side) {
-                            std::array<int, 3> f{i, j, k};
-                            f[a] += side; // the face's index along its axis
-                            if ((f[a] == 0 || f[a] == air.cells[a]) &&
-                                air.border[2 * a + std::size_t(side)] == AirBorder::Closed) {
-                                continue; // a closed side's face stays a wall
-                            }
-                            Vec3 at = origin + Vec3{f[0] + 0.5, f[1] + 0.5, f[2] + 0.5} * air.cell;
-                            (a == 0 ? at.x : a == 1 ? at.y : at.z) -= 0.5 * air.cell;
-                            const Vec3 v = bodies[std::size_t(b)]->velocityAt(at);
-                            const std::size_t index =
-                                std::size_t(f[0]) +
-                                std::size_t(faces[0]) * (std::size_t(f[1]) + std::size_t(faces[1]) * f[2]);
-                            air.fixedFaces.push_back({a, std::uint32_t(index),
-                                                      float(a == 0   ? v.x
-                                                            : a == 1 ? v.y
-                                                                     : v.z)});
-                        }
-                    }
-                }
-            }
-        }
+        holdSolidFaces(air, bodies, sources, owner);
     }
     if (solid != air.solid) {
         air.solid.swap(solid);
@@ -401,13 +479,21 @@ void advanceAir(World& world, const StepContext& ctx) {
     const Vec3 gravity{g[0], g[1], g[2]};
     std::vector<const RigidBody*> bodies;
     world.view<const RigidBody>().each([&](Entity, const RigidBody& b) { bodies.push_back(&b); });
+    std::vector<HeldSource> held;
     world.view<Air>().each([&](Entity grid, Air& air) {
         if (air.frozen) {
             return;
         }
         {
             ProfileStage stage(ctx.profiler, "air.bodies");
-            voxeliseBodies(air, bodies);
+            held.clear();
+            world.view<const Transform, const AirSource>().each(
+                [&](Entity, const Transform& t, const AirSource& s) {
+                    if (s.air == grid && s.drives) {
+                        held.push_back({&s, t.position});
+                    }
+                });
+            voxeliseSolids(air, bodies, held);
         }
         // timed as three stages, each once a step: the advection, the sources (after it: air_solver.h, in
         // the order they were loaded), then forces, viscosity and the projection

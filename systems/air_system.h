@@ -22,10 +22,21 @@ void advanceAir(World& world, const StepContext& ctx);
 /// its shape (the cell holding `at` when none is), and its velocity on the faces inside it.
 void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt);
 
+/// A source that drives its air (`velocity` given), at its entity's position.
+struct HeldSource {
+    const AirSource* source;
+    Vec3 at;
+};
+
 /// Marks the cells whose centres are inside a rigid body (all shapes but the open mesh; a plane fills what
-/// is below it) as solid, and holds each face between a solid cell and the air at its body's velocity
-/// there: the air flows round a wall and a moving paddle pushes it.
-void voxeliseBodies(Air& air, const std::vector<const RigidBody*>& bodies);
+/// is below it) as solid (1), and holds each face between a solid cell and the air at its body's velocity
+/// there: the air flows round a wall and a moving paddle pushes it. The cells of a driving source (those
+/// feedAir feeds; a body's where both are) are solid for the projection too (2), their faces held at the
+/// source's velocity, so that the projection keeps the jet it blows (left free, it took a fan of 5 m/s
+/// down to 4); their smoke and heat stay (a body's cells hold none). In a grid closed on every side a
+/// source whose faces would bring air in or out of the rest of it (against a wall) is not held.
+void voxeliseSolids(Air& air, const std::vector<const RigidBody*>& bodies,
+                    const std::vector<HeldSource>& sources);
 
 /// Registers the `air` and `air_source` components and the dump kind "air".
 void registerAirSystem(Catalog& catalog);
