@@ -3,14 +3,14 @@
 //   1. advection: every face's velocity is taken from where the flow brought it, the point found by
 //      following the face's velocity back over the step, sampled trilinearly (semi-Lagrangian:
 //      unconditionally stable; first order, so it smooths); with `advection = "maccormack"`, the result
-//      carried back along the same velocity and half the difference from the start taken off, clamped to
-//      the values the first sample mixed (second order where the field is smooth; twice the cost). The
-//      cells' smoke and heat are carried by finite volumes, so that the totals change only through open
-//      sides (and by sources, dissipation and bodies taking cells): each face passes its flow's share of the
-//      cell upwind of it (first-order upwind), in as many substeps as keep every cell's flows within one cell
-//      a substep; with "maccormack", Lax-Wendroff's fluxes limited by flux-corrected transport (Zalesak 1979:
-//      no new extremum). A flow of more than 64 cells a step takes the semi-Lagrangian step for them too (not
-//      conserving);
+//      carried back along the same velocity and half the difference from the start taken off where that
+//      stays within the values the first sample mixed, else the first sample's value (second order where
+//      the field is smooth; twice the cost). The cells' smoke and heat are carried by finite volumes, so that
+//      the totals change only through open sides (and by sources, dissipation and bodies taking cells): each
+//      face passes its flow's share of the cell upwind of it (first-order upwind), in as many substeps as
+//      keep every cell's flows within one cell a substep; with "maccormack", Lax-Wendroff's fluxes limited by
+//      flux-corrected transport (Zalesak 1979: no new extremum). A flow of more than 64 cells a step takes
+//      the semi-Lagrangian step for them too (not conserving);
 //   2. smoke's dissipation, implicit: s / (1 + dt d);
 //   3. forces: buoyancy along gravity, (smoke_weight s - heat_lift (T - mean T)) per unit of gravity's
 //      direction (a uniformly warm atmosphere feels none: Boussinesq, after Fedkiw, Stam and Jensen 2001),
