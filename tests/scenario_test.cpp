@@ -87,6 +87,30 @@ TEST(Scenario, OverrideErrorsNameTheOverride) {
     }
 }
 
+// A key of the file that fails because an override changed another key of its table (an air grid's size
+// against the cells a --set gave it) is reported at its line and names the override. Seen to fail before:
+// the message blamed the file's `size` line alone, which the user had not changed.
+TEST(Scenario, AKeyFailingWithAnOverriddenOneNamesTheOverride) {
+    const std::string text = "[scene]\nname = \"a\"\n[[entity]]\nname = \"room\"\n[entity.air]\n"
+                             "cells = [8, 8, 8]\nsize = [1.0, 1.0, 1.0]\n";
+    try {
+        makeSimulation(text, {"room.air.cells=[8, 4, 8]"});
+        FAIL() << "expected a ScenarioError";
+    } catch (const ScenarioError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("the cells must be cubes"), std::string::npos) << what;
+        EXPECT_NE(what.find("(with --set room.air.cells=[8, 4, 8])"), std::string::npos) << what;
+        EXPECT_EQ(e.line(), 7) << "at the size it checked";
+    }
+    try {
+        makeSimulation(text, {"room.air.vorticity=-1"});
+        FAIL() << "expected a ScenarioError";
+    } catch (const ScenarioError& e) {
+        EXPECT_EQ(std::string(e.what()).find("(with"), std::string::npos)
+            << "the override's own error names it once: " << e.what();
+    }
+}
+
 TEST(Scenario, RepeatMakesNumberedCopiesAtOffsets) {
     auto sim = makeSimulation(R"(
 [scene]
