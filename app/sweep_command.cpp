@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sched.h>
 #include <sys/file.h>
 #include <thread>
@@ -65,18 +66,60 @@ bool checkManifest(const Sweep& s, const std::string& out) {
     return true;
 }
 
-void writeManifest(const Sweep& s, const std::string& out) {
-    if (checkManifest(s, out)) {
-        return;
+/// A flock(2) held while it lives (none on a file system without locks: nothing is stopped then, as
+/// FolderLock says). `wait`: block until it is free, else fail at once (held() false).
+class FileLock {
+public:
+    FileLock(const std::string& path, int operation, bool wait) {
+        m_fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (m_fd >= 0 && ::flock(m_fd, operation | (wait ? 0 : LOCK_NB)) != 0) {
+            m_held = errno != EWOULDBLOCK;
+        }
     }
+    ~FileLock() {
+        if (m_fd >= 0) {
+            ::close(m_fd);
+        }
+    }
+    FileLock(const FileLock&) = delete;
+    FileLock& operator=(const FileLock&) = delete;
+    bool held() const { return m_held; }
+
+private:
+    int m_fd = -1;
+    bool m_held = true;
+};
+
+std::string runningPath(const std::string& out, const std::string& fingerprint) {
+    return out + "/running-" + fingerprint;
+}
+
+/// Ties OUT to this sweep (sweep.json) and returns the lock that says a run of it is under way, for the
+/// caller to hold while its cases run. The check and the write are one step under OUT/manifest.lock, and
+/// another sweep's manifest is replaced only when none of its runs holds its own lock: two shards of
+/// different sweeps started in the same instant could otherwise both find the folder free and run their
+/// cases into it.
+std::unique_ptr<FileLock> writeManifest(const Sweep& s, const std::string& out) {
     fs::create_directories(out + "/cases");
-    const json m = {{"fingerprint", hash16(sweepFingerprint(s))},
-                    {"sweep", s.file},
-                    {"scenario", s.scenarioPath},
-                    {"cases", s.caseCount()}};
-    // shards started side by side may all find none: each writes it whole; any of them is the same file
-    writeSweepFile(manifestPath(out), m.dump(1) + "\n");
-    checkManifest(s, out);
+    const FileLock mutex(out + "/manifest.lock", LOCK_EX, true);
+    const std::string fingerprint = hash16(sweepFingerprint(s));
+    if (!checkManifest(s, out)) {
+        std::ifstream in(manifestPath(out));
+        const json was = in ? json::parse(in, nullptr, false) : json();
+        const std::string other = was.is_object() ? was.value("fingerprint", "") : "";
+        if (!other.empty() && other != fingerprint &&
+            !FileLock(runningPath(out, other), LOCK_EX, false).held()) {
+            throw ScenarioError(s.path, 0, 0,
+                                "another sweep is running in " + out +
+                                    " (its cases have no results yet): wait for it, or give another --out");
+        }
+        const json m = {{"fingerprint", fingerprint},
+                        {"sweep", s.file},
+                        {"scenario", s.scenarioPath},
+                        {"cases", s.caseCount()}};
+        writeSweepFile(manifestPath(out), m.dump(1) + "\n");
+    }
+    return std::make_unique<FileLock>(runningPath(out, fingerprint), LOCK_SH, true);
 }
 
 /// A lock on OUT: --local holds it alone, shards share it, so that a sweep started twice in one folder
@@ -295,11 +338,11 @@ int commandSweep(const Catalog& catalog, const SweepOptions& o) {
     }
     if (o.slurm) {
         requireSlurm();
-        writeManifest(s, out);
+        writeManifest(s, out); // its tasks hold the running lock as they run
         return sweepSlurm(s, out, o);
     }
     const FolderLock lock(s, out, !o.shard.empty());
-    writeManifest(s, out);
+    const std::unique_ptr<FileLock> running = writeManifest(s, out);
     return sweepHere(s, out, o);
 }
 

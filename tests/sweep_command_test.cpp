@@ -528,6 +528,30 @@ TEST(SweepLocal, AnotherSweepsResultsInTheFolderAreNotTakenForThisOnes) {
     EXPECT_NE(command.find("--frames 21"), std::string::npos) << command;
 }
 
+// A shard of another sweep started in a folder while a shard of the first runs there, before any of its
+// cases has a result, is refused: before, it found the folder free (no result to lose), replaced
+// sweep.json with its own and ran its cases beside the first one's (seen to fail: exit 0).
+TEST(SweepLocal, AnotherSweepsShardIsRefusedWhileAShardRuns) {
+    const std::string out = tempPath("racing_out");
+    const std::string axis = "[[axis]]\nkey = \"chain.rope.stiffness\"\nvalues = [300.0]\n";
+    const std::string a = writeTemp("racing_a.toml", ropeSweep(axis, "", 1000000));
+    const std::string b = writeTemp("racing_b.toml", ropeSweep(axis, "", 21));
+    const pid_t first = startSweep({"sweep", a, "--shard", "0/1", "--out", out});
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!fs::exists(out + "/cases/00000") && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    const auto second = runTumble({"sweep", b, "--shard", "0/1", "--out", out});
+    ::kill(first, SIGTERM);
+    int status = 0;
+    ::waitpid(first, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 130) << "the first sweep ended: make it longer";
+    EXPECT_EQ(second.exitCode, 2) << second.err;
+    EXPECT_NE(second.err.find("another sweep is running in " + out), std::string::npos) << second.err;
+    // with the first stopped (no result, no run), the folder is free for the other
+    EXPECT_EQ(runTumble({"sweep", b, "--shard", "0/1", "--out", out}).exitCode, 0);
+}
+
 TEST(SweepLocal, ShardsRunTheirShareAndMergeMakesTheTable) {
     const std::string file = writeTemp("shards.toml", ropeSweep("[[axis]]\nkey = \"chain.rope.damping\"\n"
                                                                 "range = [0.1, 0.6, 7]\n"));
