@@ -195,19 +195,26 @@ void hashAir(const Air& a, Hasher& h) {
     h.add(a.pressure);
 }
 
+/// The cells a source at `at` may reach, a cell more each way: [lo, hi) along each axis, within the box.
+void sourceSpan(const Air& air, const AirSource& source, const Vec3& at, int (&lo)[3], int (&hi)[3]) {
+    const Vec3 reach = source.sphere ? Vec3{source.radius, source.radius, source.radius} : source.halfExtents;
+    const Vec3 origin = air.origin();
+    const double from[3] = {at.x - reach.x - origin.x, at.y - reach.y - origin.y, at.z - reach.z - origin.z};
+    const double to[3] = {at.x + reach.x - origin.x, at.y + reach.y - origin.y, at.z + reach.z - origin.z};
+    for (std::size_t a = 0; a < 3; ++a) {
+        // clamped as doubles first: a reach of many cells must not overflow an int
+        lo[a] = int(std::clamp(std::floor(from[a] / air.cell) - 1.0, 0.0, double(air.cells[a])));
+        hi[a] = int(std::clamp(std::ceil(to[a] / air.cell) + 1.0, 0.0, double(air.cells[a])));
+    }
+}
+
 /// Calls fn(i, j, k) for each cell of a source at `at`: those whose centres are inside its shape, else (a
 /// shape smaller than a cell) the cell holding `at` when it is in the box.
 template <class F>
 void forSourceCells(const Air& air, const AirSource& source, const Vec3& at, F&& fn) {
-    const Vec3 reach = source.sphere ? Vec3{source.radius, source.radius, source.radius} : source.halfExtents;
     const Vec3 origin = air.origin();
     int lo[3], hi[3];
-    const double from[3] = {at.x - reach.x - origin.x, at.y - reach.y - origin.y, at.z - reach.z - origin.z};
-    const double to[3] = {at.x + reach.x - origin.x, at.y + reach.y - origin.y, at.z + reach.z - origin.z};
-    for (std::size_t a = 0; a < 3; ++a) {
-        lo[a] = int(std::clamp(std::floor(from[a] / air.cell) - 1.0, 0.0, double(air.cells[a])));
-        hi[a] = int(std::clamp(std::ceil(to[a] / air.cell) + 1.0, 0.0, double(air.cells[a])));
-    }
+    sourceSpan(air, source, at, lo, hi);
     bool any = false;
     for (int k = lo[2]; k < hi[2]; ++k) {
         for (int j = lo[1]; j < hi[1]; ++j) {
@@ -250,16 +257,9 @@ void feedAir(Air& air, const AirSource& source, const Vec3& at, double dt) {
     }
     // the faces inside: each component on its own faces (the box's sides' faces too); a shape with no face
     // inside (smaller than a cell) drives the faces of its cells
-    const Vec3 reach = source.sphere ? Vec3{source.radius, source.radius, source.radius} : source.halfExtents;
     const Vec3 origin = air.origin();
     int lo[3], hi[3];
-    const double from[3] = {at.x - reach.x - origin.x, at.y - reach.y - origin.y, at.z - reach.z - origin.z};
-    const double to[3] = {at.x + reach.x - origin.x, at.y + reach.y - origin.y, at.z + reach.z - origin.z};
-    for (std::size_t a = 0; a < 3; ++a) {
-        // clamped as doubles first: a reach of many cells must not overflow an int
-        lo[a] = int(std::clamp(std::floor(from[a] / air.cell) - 1.0, 0.0, double(air.cells[a])));
-        hi[a] = int(std::clamp(std::ceil(to[a] / air.cell) + 1.0, 0.0, double(air.cells[a])));
-    }
+    sourceSpan(air, source, at, lo, hi);
     std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
     const double speed[3] = {source.velocity.x, source.velocity.y, source.velocity.z};
     int driven = 0;
