@@ -19,8 +19,8 @@ namespace tumble {
 /// pressure of the world outside).
 enum class AirBorder : std::uint8_t { Closed, Open };
 
-/// A face held at a solid's velocity (it touches a cell inside a body): which component's faces, which
-/// face, and the velocity across it.
+/// A face held at a solid's velocity (it touches a cell inside a body or a driving source): which
+/// component's faces, which face, and the velocity across it.
 struct AirFixedFace {
     std::uint32_t axis;
     std::uint32_t index;
@@ -45,8 +45,12 @@ struct AirScratch {
     std::vector<float> u, v, w, smoke, heat;           ///< the advection's outputs, swapped with the fields
     std::vector<float> back, back2;                    ///< MacCormack's step back (empty without it)
     std::vector<float> cellVelocity, curl, curlLength; ///< the vorticity confinement's, 3 n, 3 n, n
-    std::vector<std::int32_t> owner;                   ///< the voxeliser's: per cell, the body it is in
-    std::vector<std::uint8_t> solid;                   ///< the voxeliser's: this step's solid cells
+    std::vector<std::int32_t> owner; ///< the voxeliser's: per cell, the body or source it is in
+    std::vector<std::uint8_t> solid; ///< the voxeliser's: this step's solid cells
+    /// with driving sources: the cells as marked before any was let go, the sources' velocities then, the
+    /// marks let go (systems/air_system.cpp, releaseUnbalanced), and the air's regions (empty without)
+    std::vector<std::int32_t> marked, released, region;
+    std::vector<double> markedVelocities;
 };
 
 /// The grid, its parameters and its fields (README, "Air").

@@ -76,7 +76,7 @@ struct ReplayFile {
 /// grid's smoke and heat carried by finite volumes; 15: their MacCormack limiter bounded by the box's cells
 /// alone), so that another version's replay is refused with a message rather than failing to verify. When it
 /// goes up, bash tests/fuzz/make_replay_seeds.sh writes the replay fuzzer's seeds again (a test says so).
-inline constexpr std::uint32_t kReplayVersion = 18;
+inline constexpr std::uint32_t kReplayVersion = 19;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.

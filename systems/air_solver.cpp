@@ -361,7 +361,7 @@ void removeMean(const Air& air, std::vector<float>& x, WorkerPool& pool) {
     });
 }
 
-/// The solid cells' faces set to their bodies' velocities.
+/// The solid cells' faces set to their owners' velocities (a body's, a driving source's).
 void holdFixedFaces(Air& air) {
     std::vector<float>* faces[3] = {&air.u, &air.v, &air.w};
     for (const AirFixedFace& f : air.fixedFaces) {
@@ -1138,11 +1138,12 @@ void buoyancy(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     const int n[3] = {air.cells[0], air.cells[1], air.cells[2]};
     const double g = length(gravity);
     const Vec3 down = g > 0.0 ? gravity * (1.0 / g) : Vec3{0.0, -1.0, 0.0};
-    // the mean over the air's cells (a body's cells hold no heat)
+    // the mean over the cells outside bodies (which hold no heat); a driving source's cells count (they
+    // hold air, and its heat)
     const Total heatInAir = sumRows(pool, n[1], n[2], Total{}, [&](int j, int k) {
         Total t;
         for (int i = 0; i < n[0]; ++i) {
-            if (air.solid.empty() || !air.solid[air.at(i, j, k)]) {
+            if (air.solid.empty() || air.solid[air.at(i, j, k)] != 1) {
                 t.sum += double(air.heat[air.at(i, j, k)]);
                 t.count += 1.0;
             }
@@ -1558,7 +1559,7 @@ void projectAir(Air& air, WorkerPool& pool) {
         }
     });
     closeSides(air);
-    holdFixedFaces(air); // a face of a solid cell keeps its body's velocity
+    holdFixedFaces(air); // a face of a solid cell keeps its body's (or source's) velocity
     air.divergenceMax = airDivergenceMax(air, pool);
 }
 

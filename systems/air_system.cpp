@@ -209,9 +209,9 @@ void sourceSpan(const Air& air, const AirSource& source, const Vec3& at, int (&l
 }
 
 /// Calls fn(i, j, k) for each cell of a source at `at`: those whose centres are inside its shape, else (a
-/// shape smaller than a cell) the cell holding `at` when it is in the box.
+/// shape smaller than a cell) the cell holding `at` when it is in the box, unless `orHolding` is false.
 template <class F>
-void forSourceCells(const Air& air, const AirSource& source, const Vec3& at, F&& fn) {
+void forSourceCells(const Air& air, const AirSource& source, const Vec3& at, F&& fn, bool orHolding = true) {
     const Vec3 origin = air.origin();
     int lo[3], hi[3];
     sourceSpan(air, source, at, lo, hi);
@@ -226,7 +226,7 @@ void forSourceCells(const Air& air, const AirSource& source, const Vec3& at, F&&
             }
         }
     }
-    if (!any && airContains(air, at)) {
+    if (!any && orHolding && airContains(air, at)) {
         int c[3];
         const double local[3] = {at.x - origin.x, at.y - origin.y, at.z - origin.z};
         for (std::size_t a = 0; a < 3; ++a) {
@@ -306,41 +306,126 @@ const Vec3& sourceVelocity(const std::vector<HeldSource>& sources, std::int32_t 
 void markSources(const Air& air, const std::vector<HeldSource>& sources, std::vector<std::int32_t>& owner) {
     for (std::size_t s = 0; s < sources.size(); ++s) {
         const auto mark = kFirstSource - std::int32_t(s);
-        forSourceCells(air, *sources[s].source, sources[s].at,
-                       [&](int i, int j, int k) { owner[air.at(i, j, k)] = mark; });
+        // a shape with no cell's centre inside (thinner than a cell) is not held: the one cell holding its
+        // centre would stand in the middle of its jet, still across it
+        forSourceCells(
+            air, *sources[s].source, sources[s].at,
+            [&](int i, int j, int k) { owner[air.at(i, j, k)] = mark; }, false);
     }
 }
 
-/// In a grid closed on every side, a source whose held faces would put air into (or take it from) the rest
-/// of the grid (one against a wall, its faces there staying walls) is let go again: the box could not take
-/// that air, and the projection would leave the difference spread over every cell as divergence. Such a
-/// source drives its faces as any does, the projection free to change them.
-void releaseUnbalanced(const Air& air, const std::vector<HeldSource>& sources,
-                       std::vector<std::int32_t>& owner) {
-    if (!std::all_of(air.border.begin(), air.border.end(),
-                     [](AirBorder b) { return b == AirBorder::Closed; })) {
-        return;
-    }
-    for (std::size_t s = 0; s < sources.size(); ++s) {
-        const auto mark = kFirstSource - std::int32_t(s);
-        const Vec3& v = sources[s].source->velocity;
-        const double speed[3] = {v.x, v.y, v.z};
-        double net = 0.0, gross = 0.0; // the held faces' flow into the air's cells
-        forSourceCells(air, *sources[s].source, sources[s].at, [&](int i, int j, int k) {
-            for (int a = 0; a < 3 && owner[air.at(i, j, k)] == mark; ++a) {
-                for (int side = 0; side < 2; ++side) {
-                    std::array<int, 3> m{i, j, k};
-                    m[std::size_t(a)] += side == 0 ? -1 : 1;
-                    if (m[std::size_t(a)] >= 0 && m[std::size_t(a)] < air.cells[std::size_t(a)] &&
-                        owner[air.at(m[0], m[1], m[2])] == -1) {
-                        net += side == 0 ? -speed[a] : speed[a];
-                        gross += std::abs(speed[a]);
+/// Calls fn(s, neighbour cell, flow into it) for each face between a cell of driving source s and an air
+/// cell (owner -1) of the box: the flow is the source's velocity along the face's normal, out of the source.
+template <class F>
+void forHeldFacesIntoAir(const Air& air, const std::vector<HeldSource>& sources,
+                         const std::vector<std::int32_t>& owner, F&& fn) {
+    for (int k = 0; k < air.cells[2]; ++k) {
+        for (int j = 0; j < air.cells[1]; ++j) {
+            for (int i = 0; i < air.cells[0]; ++i) {
+                const std::int32_t o = owner[air.at(i, j, k)];
+                if (o > kFirstSource) {
+                    continue; // air, or a body
+                }
+                const Vec3& v = sourceVelocity(sources, o);
+                const double speed[3] = {v.x, v.y, v.z};
+                for (int a = 0; a < 3; ++a) {
+                    for (int side = 0; side < 2; ++side) {
+                        std::array<int, 3> m{i, j, k};
+                        m[std::size_t(a)] += side == 0 ? -1 : 1;
+                        if (m[std::size_t(a)] >= 0 && m[std::size_t(a)] < air.cells[std::size_t(a)] &&
+                            owner[air.at(m[0], m[1], m[2])] == -1) {
+                            fn(std::size_t(kFirstSource - o), air.at(m[0], m[1], m[2]),
+                               side == 0 ? -speed[a] : speed[a]);
+                        }
                     }
                 }
             }
-        });
-        if (std::abs(net) > 1e-6 * gross) {
+        }
+    }
+}
+
+/// Labels the air's connected regions (owner -1, joined through faces) in `region`; returns for each
+/// whether it reaches an open side.
+std::vector<std::uint8_t> airRegions(const Air& air, const std::vector<std::int32_t>& owner,
+                                     std::vector<std::int32_t>& region) {
+    region.assign(owner.size(), -1);
+    std::vector<std::uint8_t> open;
+    std::vector<std::array<int, 3>> stack;
+    for (int k0 = 0; k0 < air.cells[2]; ++k0) {
+        for (int j0 = 0; j0 < air.cells[1]; ++j0) {
+            for (int i0 = 0; i0 < air.cells[0]; ++i0) {
+                if (owner[air.at(i0, j0, k0)] != -1 || region[air.at(i0, j0, k0)] >= 0) {
+                    continue;
+                }
+                const auto label = std::int32_t(open.size());
+                open.push_back(0);
+                region[air.at(i0, j0, k0)] = label;
+                stack.push_back({i0, j0, k0});
+                while (!stack.empty()) {
+                    const std::array<int, 3> c = stack.back();
+                    stack.pop_back();
+                    for (std::size_t a = 0; a < 3; ++a) {
+                        for (int side = 0; side < 2; ++side) {
+                            std::array<int, 3> m = c;
+                            m[a] += side == 0 ? -1 : 1;
+                            if (m[a] < 0 || m[a] >= air.cells[a]) {
+                                open.back() |= air.border[2 * a + std::size_t(side)] == AirBorder::Open;
+                            } else if (owner[air.at(m[0], m[1], m[2])] == -1 &&
+                                       region[air.at(m[0], m[1], m[2])] < 0) {
+                                region[air.at(m[0], m[1], m[2])] = label;
+                                stack.push_back(m);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    return open;
+}
+
+/// A pocket of air that reaches no open side (a closed room; the closed end of a duct a fan fills) can
+/// take no net flow from the held sources around it: its own pressure problem would have no solution (the
+/// projection left the difference as divergence, and its CG ran to its cap). The sources that feed a
+/// pocket unevenly are let go (their cells air again, their faces driven as any source's, the projection
+/// free to change them), until every pocket they feed is even. Done again only when the marked cells or
+/// the sources' velocities change (its flood fill reads every cell).
+void releaseUnbalanced(Air& air, const std::vector<HeldSource>& sources, std::vector<std::int32_t>& owner) {
+    AirScratch& s = air.scratch;
+    std::vector<double> velocities;
+    for (const HeldSource& h : sources) {
+        velocities.insert(velocities.end(),
+                          {h.source->velocity.x, h.source->velocity.y, h.source->velocity.z});
+    }
+    if (owner == s.marked && velocities == s.markedVelocities) {
+        for (const std::int32_t mark : s.released) {
             std::replace(owner.begin(), owner.end(), mark, std::int32_t(-1));
+        }
+        return;
+    }
+    s.marked = owner;
+    s.markedVelocities = velocities;
+    s.released.clear();
+    for (bool again = true; again;) {
+        const std::vector<std::uint8_t> open = airRegions(air, owner, s.region);
+        std::vector<double> net(open.size(), 0.0), gross(open.size(), 0.0);
+        forHeldFacesIntoAir(air, sources, owner, [&](std::size_t, std::size_t cell, double flow) {
+            net[std::size_t(s.region[cell])] += flow;
+            gross[std::size_t(s.region[cell])] += std::abs(flow);
+        });
+        std::vector<std::uint8_t> release(sources.size(), 0);
+        forHeldFacesIntoAir(air, sources, owner, [&](std::size_t source, std::size_t cell, double) {
+            const auto r = std::size_t(s.region[cell]);
+            release[source] |= !open[r] && std::abs(net[r]) > 1e-6 * gross[r];
+        });
+        again = false;
+        for (std::size_t h = 0; h < sources.size(); ++h) {
+            if (release[h]) {
+                const auto mark = kFirstSource - std::int32_t(h);
+                std::replace(owner.begin(), owner.end(), mark, std::int32_t(-1));
+                s.released.push_back(mark);
+                again = true;
+            }
         }
     }
 }
@@ -434,7 +519,9 @@ void voxeliseSolids(Air& air, const std::vector<const RigidBody*>& bodies,
             }
         }
     }
-    releaseUnbalanced(air, sources, owner);
+    if (!sources.empty()) {
+        releaseUnbalanced(air, sources, owner);
+    }
     std::vector<std::uint8_t>& solid = air.scratch.solid; // compared with the last step's, then swapped in
     solid.clear();
     air.fixedFaces.clear();

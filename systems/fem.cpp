@@ -643,6 +643,7 @@ SolveStats implicitFem(SpringNetwork& net, FemSolver& s, std::vector<Vec3>& f, c
         stats.iterations += again.iterations;
         stats.relativeResidual = again.relativeResidual;
         stats.converged = again.converged;
+        stats.solvedAgain = true;
     }
     restingFriction(net, s.restingWeights, s.dv);
     for (std::size_t i = 0; i < n; ++i) {

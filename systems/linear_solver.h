@@ -162,6 +162,7 @@ struct SolveStats {
     int iterations = 0;
     double relativeResidual = 0.0; ///< |b - A x| / |b| at the end
     bool converged = false;
+    bool solvedAgain = false; ///< an fem body's step: solved a second time, resting contacts let go
 };
 
 /// Solves A x = b by preconditioned CG, from the first guess that PcgVectors describes (x given is the
