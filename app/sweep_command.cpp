@@ -53,7 +53,10 @@ bool checkManifest(const Sweep& s, const std::string& out) {
     }
     const json m = json::parse(in, nullptr, false);
     const std::string want = hash16(sweepFingerprint(s));
-    if (m.is_discarded() || !m.is_object() || m.value("fingerprint", "") != want) {
+    // a fingerprint that is not a string (a hand-edited file) is another sweep's, not a crash
+    const bool ours = m.is_object() && m.contains("fingerprint") && m["fingerprint"].is_string() &&
+                      m["fingerprint"].get<std::string>() == want;
+    if (!ours) {
         if (!anyResult(out)) {
             return false;
         }
@@ -66,15 +69,23 @@ bool checkManifest(const Sweep& s, const std::string& out) {
     return true;
 }
 
-/// A flock(2) held while it lives (none on a file system without locks: nothing is stopped then, as
-/// FolderLock says). `wait`: block until it is free, else fail at once (held() false).
+/// A flock(2) held while it lives. `wait`: block until it is free, else give up at once (held() false).
+/// `create`: make the file if it is missing (else a missing file is free: held() true, nothing locked). A
+/// file that cannot be opened (another user's, a file system without locks) locks nothing and counts as
+/// held: nothing is stopped then, as FolderLock notes.
 class FileLock {
 public:
-    FileLock(const std::string& path, int operation, bool wait) {
-        m_fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-        if (m_fd >= 0 && ::flock(m_fd, operation | (wait ? 0 : LOCK_NB)) != 0) {
-            m_held = errno != EWOULDBLOCK;
+    FileLock(const std::string& path, int operation, bool wait, bool create = true) {
+        // read-only is enough for flock, and opens another user's lock file in a shared folder
+        m_fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | (create ? O_CREAT : 0), 0644);
+        if (m_fd < 0) {
+            return;
         }
+        int status = 0;
+        do {
+            status = ::flock(m_fd, operation | (wait ? 0 : LOCK_NB));
+        } while (status != 0 && errno == EINTR);
+        m_held = status == 0 || errno != EWOULDBLOCK;
     }
     ~FileLock() {
         if (m_fd >= 0) {
@@ -106,9 +117,12 @@ std::unique_ptr<FileLock> writeManifest(const Sweep& s, const std::string& out) 
     if (!checkManifest(s, out)) {
         std::ifstream in(manifestPath(out));
         const json was = in ? json::parse(in, nullptr, false) : json();
-        const std::string other = was.is_object() ? was.value("fingerprint", "") : "";
-        if (!other.empty() && other != fingerprint &&
-            !FileLock(runningPath(out, other), LOCK_EX, false).held()) {
+        const json* other = was.is_object() && was.contains("fingerprint") ? &was["fingerprint"] : nullptr;
+        const bool named =
+            other && other->is_string() && other->get<std::string>().size() == 16 &&
+            other->get<std::string>().find_first_not_of("0123456789abcdef") == std::string::npos;
+        if (named && other->get<std::string>() != fingerprint &&
+            !FileLock(runningPath(out, other->get<std::string>()), LOCK_EX, false, false).held()) {
             throw ScenarioError(s.path, 0, 0,
                                 "another sweep is running in " + out +
                                     " (its cases have no results yet): wait for it, or give another --out");
@@ -338,7 +352,8 @@ int commandSweep(const Catalog& catalog, const SweepOptions& o) {
     }
     if (o.slurm) {
         requireSlurm();
-        writeManifest(s, out); // its tasks hold the running lock as they run
+        // held while the array is submitted; its tasks hold it as they run (not while they wait in the queue)
+        const std::unique_ptr<FileLock> running = writeManifest(s, out);
         return sweepSlurm(s, out, o);
     }
     const FolderLock lock(s, out, !o.shard.empty());

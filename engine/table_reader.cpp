@@ -169,17 +169,18 @@ const toml::node* TableReader::node(std::string_view key) {
 
 void TableReader::fail(std::string_view key, const std::string& message) const {
     const toml::node* n = m_table.get(key);
-    // a key of the file that fails with another of its table (cells against size): where the other was
-    // overridden, the message says so, else it blames a line the user did not change
+    m_ctx.fail(n ? n : &m_table, message);
+}
+
+void TableReader::failAgainst(std::string_view key, std::initializer_list<std::string_view> others,
+                              const std::string& message) const {
     std::string with;
-    if (!n || !m_ctx.overrideOf.count(n)) {
-        for (const auto& [other, value] : m_table) {
-            if (auto it = m_ctx.overrideOf.find(&value); it != m_ctx.overrideOf.end()) {
-                with += (with.empty() ? " (with " : ", ") + it->second;
-            }
+    for (std::string_view other : others) {
+        if (auto it = m_ctx.overrideOf.find(m_table.get(other)); it != m_ctx.overrideOf.end()) {
+            with += (with.empty() ? " (with " : ", ") + it->second;
         }
     }
-    m_ctx.fail(n ? n : &m_table, with.empty() ? message : message + with + ")");
+    fail(key, with.empty() ? message : message + with + ")");
 }
 
 void TableReader::charge(std::string_view key, std::uint64_t bytes, const std::string& what) const {

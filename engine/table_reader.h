@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <span>
 #include <stdexcept>
@@ -108,6 +109,11 @@ public:
 
     /// Fail at a key's value (or at the table when the key is absent).
     [[noreturn]] void fail(std::string_view key, const std::string& message) const;
+    /// fail(key, message) for a key checked against others of its table (an air grid's size against its
+    /// cells): those of `others` an override gave are named at the end, "(with --set ...)", so that a
+    /// message at a line the user did not change says what did.
+    [[noreturn]] void failAgainst(std::string_view key, std::initializer_list<std::string_view> others,
+                                  const std::string& message) const;
     /// LoadContext::charge, located at the key (or at the table when it is absent).
     void charge(std::string_view key, std::uint64_t bytes, const std::string& what) const;
     /// Fail at a node inside this table.

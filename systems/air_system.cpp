@@ -72,7 +72,7 @@ void loadAir(TableReader& r, World& world, Entity entity, const SceneDef& scene)
                 "them equal (e.g. size = [%g, %g, %g])",
                 size[0] / cells[0], size[1] / cells[1], size[2] / cells[2], air.cell * cells[0],
                 air.cell * cells[1], air.cell * cells[2]);
-            r.fail("size", text);
+            r.failAgainst("size", {"cells"}, text);
         }
     }
     readBorder(r, air);

@@ -109,6 +109,13 @@ TEST(Scenario, AKeyFailingWithAnOverriddenOneNamesTheOverride) {
         EXPECT_EQ(std::string(e.what()).find("(with"), std::string::npos)
             << "the override's own error names it once: " << e.what();
     }
+    try {
+        makeSimulation(text, {"room.air.vorticity=0.5", "room.air.advection=sideways"});
+        FAIL() << "expected a ScenarioError";
+    } catch (const ScenarioError& e) {
+        EXPECT_EQ(std::string(e.what()).find("vorticity"), std::string::npos)
+            << "an unrelated override is not named: " << e.what();
+    }
 }
 
 TEST(Scenario, RepeatMakesNumberedCopiesAtOffsets) {
