@@ -51,6 +51,7 @@ struct AirScratch {
     /// marks let go (systems/air_system.cpp, releaseUnbalanced), and the air's regions (empty without)
     std::vector<std::int32_t> marked, released, region;
     std::vector<double> markedVelocities;
+    std::vector<std::array<std::int32_t, 4>> regionStack; ///< the flood fill's: a cell and its i, j, k
 };
 
 /// The grid, its parameters and its fields (README, "Air").

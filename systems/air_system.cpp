@@ -316,26 +316,30 @@ void markSources(const Air& air, const std::vector<HeldSource>& sources, std::ve
 
 /// Calls fn(s, neighbour cell, flow into it) for each face between a cell of driving source s and an air
 /// cell (owner -1) of the box: the flow is the source's velocity along the face's normal, out of the source.
+/// Only each source's span of cells is read (a held source has no cell outside it).
 template <class F>
 void forHeldFacesIntoAir(const Air& air, const std::vector<HeldSource>& sources,
                          const std::vector<std::int32_t>& owner, F&& fn) {
-    for (int k = 0; k < air.cells[2]; ++k) {
-        for (int j = 0; j < air.cells[1]; ++j) {
-            for (int i = 0; i < air.cells[0]; ++i) {
-                const std::int32_t o = owner[air.at(i, j, k)];
-                if (o > kFirstSource) {
-                    continue; // air, or a body
-                }
-                const Vec3& v = sourceVelocity(sources, o);
-                const double speed[3] = {v.x, v.y, v.z};
-                for (int a = 0; a < 3; ++a) {
-                    for (int side = 0; side < 2; ++side) {
-                        std::array<int, 3> m{i, j, k};
-                        m[std::size_t(a)] += side == 0 ? -1 : 1;
-                        if (m[std::size_t(a)] >= 0 && m[std::size_t(a)] < air.cells[std::size_t(a)] &&
-                            owner[air.at(m[0], m[1], m[2])] == -1) {
-                            fn(std::size_t(kFirstSource - o), air.at(m[0], m[1], m[2]),
-                               side == 0 ? -speed[a] : speed[a]);
+    for (std::size_t h = 0; h < sources.size(); ++h) {
+        const auto mark = kFirstSource - std::int32_t(h);
+        const Vec3& v = sources[h].source->velocity;
+        const double speed[3] = {v.x, v.y, v.z};
+        int lo[3], hi[3];
+        sourceSpan(air, *sources[h].source, sources[h].at, lo, hi);
+        for (int k = lo[2]; k < hi[2]; ++k) {
+            for (int j = lo[1]; j < hi[1]; ++j) {
+                for (int i = lo[0]; i < hi[0]; ++i) {
+                    if (owner[air.at(i, j, k)] != mark) {
+                        continue;
+                    }
+                    for (int a = 0; a < 3; ++a) {
+                        for (int side = 0; side < 2; ++side) {
+                            std::array<int, 3> m{i, j, k};
+                            m[std::size_t(a)] += side == 0 ? -1 : 1;
+                            if (m[std::size_t(a)] >= 0 && m[std::size_t(a)] < air.cells[std::size_t(a)] &&
+                                owner[air.at(m[0], m[1], m[2])] == -1) {
+                                fn(h, air.at(m[0], m[1], m[2]), side == 0 ? -speed[a] : speed[a]);
+                            }
                         }
                     }
                 }
@@ -345,41 +349,46 @@ void forHeldFacesIntoAir(const Air& air, const std::vector<HeldSource>& sources,
 }
 
 /// Labels the air's connected regions (owner -1, joined through faces) in `region`; returns for each
-/// whether it reaches an open side.
+/// whether it reaches an open side. One visit a cell, its coordinates carried on the stack (no division).
 std::vector<std::uint8_t> airRegions(const Air& air, const std::vector<std::int32_t>& owner,
-                                     std::vector<std::int32_t>& region) {
+                                     std::vector<std::int32_t>& region,
+                                     std::vector<std::array<std::int32_t, 4>>& stack) {
+    const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
+    const std::size_t sy = std::size_t(nx), sz = sy * std::size_t(ny);
     region.assign(owner.size(), -1);
     std::vector<std::uint8_t> open;
-    std::vector<std::array<int, 3>> stack;
-    for (int k0 = 0; k0 < air.cells[2]; ++k0) {
-        for (int j0 = 0; j0 < air.cells[1]; ++j0) {
-            for (int i0 = 0; i0 < air.cells[0]; ++i0) {
-                if (owner[air.at(i0, j0, k0)] != -1 || region[air.at(i0, j0, k0)] >= 0) {
-                    continue;
-                }
-                const auto label = std::int32_t(open.size());
-                open.push_back(0);
-                region[air.at(i0, j0, k0)] = label;
-                stack.push_back({i0, j0, k0});
-                while (!stack.empty()) {
-                    const std::array<int, 3> c = stack.back();
-                    stack.pop_back();
-                    for (std::size_t a = 0; a < 3; ++a) {
-                        for (int side = 0; side < 2; ++side) {
-                            std::array<int, 3> m = c;
-                            m[a] += side == 0 ? -1 : 1;
-                            if (m[a] < 0 || m[a] >= air.cells[a]) {
-                                open.back() |= air.border[2 * a + std::size_t(side)] == AirBorder::Open;
-                            } else if (owner[air.at(m[0], m[1], m[2])] == -1 &&
-                                       region[air.at(m[0], m[1], m[2])] < 0) {
-                                region[air.at(m[0], m[1], m[2])] = label;
-                                stack.push_back(m);
-                            }
-                        }
-                    }
-                }
-            }
+    bool sideOpen[6];
+    for (std::size_t side = 0; side < 6; ++side) {
+        sideOpen[side] = air.border[side] == AirBorder::Open;
+    }
+    for (std::size_t c0 = 0; c0 < owner.size(); ++c0) {
+        if (owner[c0] != -1 || region[c0] >= 0) {
+            continue;
         }
+        const auto label = std::int32_t(open.size());
+        bool reaches = false;
+        region[c0] = label;
+        stack.push_back({std::int32_t(c0), int(c0 % sy), int(c0 / sy % std::size_t(ny)), int(c0 / sz)});
+        while (!stack.empty()) {
+            const auto [c, i, j, k] = stack.back();
+            stack.pop_back();
+            // a neighbour inside the box joins the region; past a side, the side may be open
+            const auto visit = [&](bool inside, std::int32_t m, int di, int dj, int dk, std::size_t side) {
+                if (!inside) {
+                    reaches = reaches || sideOpen[side];
+                } else if (owner[std::size_t(m)] == -1 && region[std::size_t(m)] < 0) {
+                    region[std::size_t(m)] = label;
+                    stack.push_back({m, i + di, j + dj, k + dk});
+                }
+            };
+            visit(i > 0, c - 1, -1, 0, 0, 0);
+            visit(i < nx - 1, c + 1, 1, 0, 0, 1);
+            visit(j > 0, c - std::int32_t(sy), 0, -1, 0, 2);
+            visit(j < ny - 1, c + std::int32_t(sy), 0, 1, 0, 3);
+            visit(k > 0, c - std::int32_t(sz), 0, 0, -1, 4);
+            visit(k < nz - 1, c + std::int32_t(sz), 0, 0, 1, 5);
+        }
+        open.push_back(reaches ? 1 : 0);
     }
     return open;
 }
@@ -407,7 +416,7 @@ void releaseUnbalanced(Air& air, const std::vector<HeldSource>& sources, std::ve
     s.markedVelocities = velocities;
     s.released.clear();
     for (bool again = true; again;) {
-        const std::vector<std::uint8_t> open = airRegions(air, owner, s.region);
+        const std::vector<std::uint8_t> open = airRegions(air, owner, s.region, s.regionStack);
         std::vector<double> net(open.size(), 0.0), gross(open.size(), 0.0);
         forHeldFacesIntoAir(air, sources, owner, [&](std::size_t, std::size_t cell, double flow) {
             net[std::size_t(s.region[cell])] += flow;
