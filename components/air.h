@@ -54,6 +54,10 @@ struct AirScratch {
     std::vector<std::array<std::int32_t, 4>> regionStack; ///< the flood fill's: a cell and its i, j, k
 };
 
+/// Air::solid's values: a cell out of the pressure problem, inside a body (it holds no smoke or heat) or a
+/// driving source (it keeps its own).
+constexpr std::uint8_t kBodyCell = 1, kSourceCell = 2;
+
 /// The grid, its parameters and its fields (README, "Air").
 struct Air {
     std::array<int, 3> cells{32, 32, 32}; ///< along x, y, z
@@ -81,8 +85,8 @@ struct Air {
     std::vector<float> u, v, w;     ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
     std::vector<float> smoke, heat; ///< density (1 = thick), degrees above ambient; nx ny nz each
     std::vector<float> pressure;    ///< the last projection's (scaled: p dt / rho), the next one's guess
-    /// per cell: 1 inside a rigid body (voxelised each step), which the air flows round, 2 in a driving
-    /// source (systems/air_system.h), 0 air; empty: none
+    /// per cell: kBodyCell inside a rigid body (voxelised each step), which the air flows round,
+    /// kSourceCell in a driving source (systems/air_system.h), 0 air; empty: none
     std::vector<std::uint8_t> solid;
     std::vector<AirFixedFace> fixedFaces; ///< the faces of the solid cells, at their owners' velocities
     bool solidChanged = false;            ///< the solver's levels must be made again for the new cells

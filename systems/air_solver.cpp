@@ -230,7 +230,7 @@ void shapeLevels(Air& air) {
             if (air.solid.empty()) {
                 std::fill(level.solid.begin(), level.solid.end(), std::uint8_t(0));
             } else {
-                // a body's cells (1) and a driving source's (2) alike: out of the pressure problem
+                // a body's cells and a driving source's alike: out of the pressure problem
                 std::transform(air.solid.begin(), air.solid.end(), level.solid.begin(),
                                [](std::uint8_t s) { return std::uint8_t(s != 0 ? 1 : 0); });
             }
@@ -1143,7 +1143,7 @@ void buoyancy(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     const Total heatInAir = sumRows(pool, n[1], n[2], Total{}, [&](int j, int k) {
         Total t;
         for (int i = 0; i < n[0]; ++i) {
-            if (air.solid.empty() || air.solid[air.at(i, j, k)] != 1) {
+            if (air.solid.empty() || air.solid[air.at(i, j, k)] != kBodyCell) {
                 t.sum += double(air.heat[air.at(i, j, k)]);
                 t.count += 1.0;
             }
@@ -1597,7 +1597,7 @@ void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     if (!air.solid.empty()) {
         // nothing is carried into a body (a driving source's cells keep what they hold and are fed)
         for (std::size_t c = 0; c < air.solid.size(); ++c) {
-            if (air.solid[c] == 1) {
+            if (air.solid[c] == kBodyCell) {
                 air.smoke[c] = 0.0f;
                 air.heat[c] = 0.0f;
             }

@@ -537,7 +537,7 @@ void voxeliseSolids(Air& air, const std::vector<const RigidBody*>& bodies,
     if (std::any_of(owner.begin(), owner.end(), [](std::int32_t o) { return o != -1; })) {
         solid.resize(n);
         for (std::size_t c = 0; c < n; ++c) {
-            solid[c] = owner[c] >= 0 ? 1 : owner[c] == -1 ? 0 : 2;
+            solid[c] = owner[c] >= 0 ? kBodyCell : owner[c] == -1 ? 0 : kSourceCell;
         }
         holdSolidFaces(air, bodies, sources, owner);
     }

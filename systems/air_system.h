@@ -31,13 +31,13 @@ struct HeldSource {
 };
 
 /// Marks the cells whose centres are inside a rigid body (all shapes but the open mesh; a plane fills what
-/// is below it) as solid (1), and holds each face between a solid cell and the air at its body's velocity
-/// there: the air flows round a wall and a moving paddle pushes it. The cells of a driving source (those
-/// feedAir feeds, when a cell's centre is inside; a body's where both are) are solid for the projection
-/// too (2), their faces held at the source's velocity, so that the projection keeps the jet it blows
-/// (left free, it took a fan of 5 m/s down to 4); their smoke and heat stay (a body's cells hold none). A
-/// source that would feed a pocket of air reaching no open side unevenly (against a closed room's wall;
-/// filling a duct's closed end) is not held. A still source (velocity zero) is held still: a block the
+/// is below it) as solid (kBodyCell), and holds each face between a solid cell and the air at its body's
+/// velocity there: the air flows round a wall and a moving paddle pushes it. The cells of a driving source
+/// (those feedAir feeds, when a cell's centre is inside; a body's where both are) are solid for the
+/// projection too (kSourceCell), their faces held at the source's velocity, so that the projection keeps the
+/// jet it blows (left free, it took a fan of 5 m/s down to 4); their smoke and heat stay (a body's cells hold
+/// none). A source that would feed a pocket of air reaching no open side unevenly (against a closed room's
+/// wall; filling a duct's closed end) is not held. A still source (velocity zero) is held still: a block the
 /// air flows round.
 void voxeliseSolids(Air& air, const std::vector<const RigidBody*>& bodies,
                     const std::vector<HeldSource>& sources);
