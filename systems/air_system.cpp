@@ -370,8 +370,10 @@ std::vector<std::uint8_t> airRegions(const Air& air, const std::vector<std::int3
         region[c0] = label;
         stack.push_back({std::int32_t(c0), int(c0 % sy), int(c0 / sy % std::size_t(ny)), int(c0 / sz)});
         while (!stack.empty()) {
-            const auto [c, i, j, k] = stack.back();
+            // named copies, not a structured binding: clang 14 cannot capture bindings in the lambda
+            const std::array<std::int32_t, 4> top = stack.back();
             stack.pop_back();
+            const std::int32_t c = top[0], i = top[1], j = top[2], k = top[3];
             // a neighbour inside the box joins the region; past a side, the side may be open
             const auto visit = [&](bool inside, std::int32_t m, int di, int dj, int dk, std::size_t side) {
                 if (!inside) {
