@@ -360,6 +360,32 @@ TetMesh readFemMesh(TableReader& r, const Vec3& centre, std::array<int, 3>& boxC
     }
 }
 
+/// An fem body's surface in cloth contact (`self_collision`): charged as a cloth's triangles are, its
+/// thickness above 0 and within its mean surface edge (as a cloth's within its grid spacing: masses closer
+/// along the surface would each face a crowd of their neighbours' triangles; a pair closer at rest, where a
+/// mesher left a short edge, is kept from crossing and not repelled, as a cloth's is).
+void checkFemContact(TableReader& r, SpringNetwork& net) {
+    r.charge("self_collision", net.triangles.size() * 1000u,
+             r.where() + "'s surface in contact (" + std::to_string(net.triangles.size()) + " triangles)");
+    if (net.thickness <= 0.0) {
+        r.fail("thickness", "self-collision keeps the body's surface a 'thickness' from other surfaces: it "
+                            "must be above 0");
+    }
+    double sum = 0.0;
+    for (const Triangle& t : net.triangles) {
+        for (int k = 0; k < 3; ++k) {
+            sum += length(net.x[t[k]] - net.x[t[(k + 1) % 3]]);
+        }
+    }
+    const double mean = sum / (3.0 * double(net.triangles.size()));
+    if (net.thickness > mean) {
+        r.fail("thickness", "self-collision needs a 'thickness' (" + std::to_string(net.thickness) +
+                                " m) no larger than the body's mean surface edge (" + std::to_string(mean) +
+                                " m): make it thinner, or the mesh coarser");
+    }
+    net.selfCollision = true;
+}
+
 /// [entity.fem] (README, "Finite-element bodies").
 void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
     const Vec3 centre = world.get<Transform>(entity).position;
@@ -388,6 +414,7 @@ void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
               : "'none' (the mesh is not a box)");
     const auto lin = r.vector<3>("linear_velocity", {0.0, 0.0, 0.0}, -1e4, 1e4);
     const auto ang = r.vector<3>("angular_velocity", {0.0, 0.0, 0.0}, -1e4, 1e4);
+    const bool selfCollision = r.boolean("self_collision", false);
     SpringNetwork net;
     try {
         net = buildFem(mesh, material, pins);
@@ -399,6 +426,9 @@ void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
     readCommon(r, net, "implicit_euler", kFemIntegrators);
     if (net.doublePrecisionSolve) {
         r.fail("solver_precision", "an fem body solves in float: leave out 'solver_precision'");
+    }
+    if (selfCollision) {
+        checkFemContact(r, net);
     }
     // the start's velocity: v + w x (x - centre of mass)
     Vec3 com;
@@ -414,6 +444,9 @@ void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
         }
     }
     net.implicitCharged = true;
+    if (net.selfCollision) {
+        world.emplace<ClothCollision>(entity, makeClothCollision(net.x));
+    }
     world.emplace<SpringNetwork>(entity, std::move(net));
     world.emplace<SpringWorkspace>(entity);
 }

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <random>
 #include <sstream>
 #include <tuple>
@@ -98,9 +99,9 @@ struct Outcome {
     std::uint64_t steps = 0;
 };
 
-/// Runs the scene step by step and judges every step.
+/// Runs the scene step by step and judges every step; `atEnd` is shown the simulation when it has run.
 Outcome judge(const std::string& text, const std::vector<std::string>& cloths, const Colliders& colliders,
-              int frames) {
+              int frames, const std::function<void(Simulation&)>& atEnd = {}) {
     auto sim = test::makeSimulation(text);
     std::vector<const SpringNetwork*> nets;
     std::vector<test::Surface> surfaces;
@@ -130,6 +131,9 @@ Outcome judge(const std::string& text, const std::vector<std::string>& cloths, c
     }
     o.steps = sim->step();
     EXPECT_TRUE(sim->world().resource<RunReport>().failures.empty());
+    if (atEnd) {
+        atEnd(*sim);
+    }
     return o;
 }
 
@@ -227,6 +231,181 @@ TEST_P(SelfCollidingDemo, NeverCrossesAfterAnyStep) {
 INSTANTIATE_TEST_SUITE_P(Demos, SelfCollidingDemo,
                          ::testing::Values("pile", "drape_sphere", "tablecloth", "twist"),
                          [](const auto& param) { return std::string(param.param); });
+
+// ---- finite-element bodies in cloth contact --------------------------------------------------------------
+
+/// A cloth of 24 x 24 masses (1.2 m, 0.02 m thick) dropped from 0.25 m above a soft fem block (0.6 x 0.3 x
+/// 0.6 m, its bottom pinned to the ground), the block's surface in contact or not.
+std::string clothOnBlock(bool blockInContact) {
+    return std::string(R"(
+[scene]
+name = "cloth_on_block"
+dt = 0.008333333333
+substeps = 2
+[[entity]]
+name = "floor"
+[entity.rigid_body]
+shape = "plane"
+[[entity]]
+name = "block"
+[entity.transform]
+position = [0.0, 0.15, 0.0]
+[entity.fem]
+mesh = "box"
+size = [0.6, 0.3, 0.6]
+resolution = [4, 2, 4]
+young = 2.0e4
+density = 200.0
+pin = "bottom"
+thickness = 0.01
+self_collision = )") +
+           (blockInContact ? "true" : "false") + R"(
+[[entity]]
+name = "cloth"
+[entity.transform]
+position = [0.02, 0.55, -0.03]
+[entity.cloth]
+rows = 24
+cols = 24
+size = [1.2, 1.2]
+plane = "xz"
+stretch = 3000.0
+shear = 300.0
+bend = 1.0
+pin = "none"
+integrator = "implicit_euler"
+thickness = 0.02
+self_collision = true
+)";
+}
+
+/// The highest point of the net's masses within `reach` of the vertical axis through the origin.
+double highestNear(const SpringNetwork& net, double reach) {
+    double top = -1e300;
+    for (const Vec3& p : net.x) {
+        if (std::abs(p.x) < reach && std::abs(p.z) < reach) {
+            top = std::max(top, p.y);
+        }
+    }
+    return top;
+}
+
+TEST(FemContact, AClothDroppedOnAnFemBlockRestsOnItsSurfaceWithoutCrossingIt) {
+    double blockTop = 0.0, clothOver = 0.0, clothLowest = 0.0;
+    const Outcome o = judge(clothOnBlock(true), {"cloth", "block"}, Colliders{}, 90, [&](Simulation& sim) {
+        const auto& block = test::component<SpringNetwork>(sim, "block");
+        const auto& cloth = test::component<SpringNetwork>(sim, "cloth");
+        blockTop = highestNear(block, 0.2);
+        double lowest = 1e300;
+        for (const Vec3& p : cloth.x) {
+            if (std::abs(p.x) < 0.2 && std::abs(p.z) < 0.2) {
+                lowest = std::min(lowest, p.y);
+            }
+        }
+        clothLowest = lowest;
+        clothOver = highestNear(cloth, 0.2);
+    });
+    EXPECT_EQ(o.worstCrossings, 0) << "first at step " << o.stepOfFirst;
+    // it lies on the block's top (0.3 m, pressed a little by the cloth), a thickness or so above it
+    EXPECT_GT(blockTop, 0.25);
+    EXPECT_GT(clothLowest, blockTop - 0.005);
+    EXPECT_LT(clothOver, blockTop + 0.06);
+    // the same block left out of contact: the cloth falls through it to the ground, crossing its surface
+    const Outcome through =
+        judge(clothOnBlock(false), {"cloth", "block"}, Colliders{}, 90, [&](Simulation& sim) {
+            EXPECT_LT(highestNear(test::component<SpringNetwork>(sim, "cloth"), 0.2), 0.1);
+        });
+    EXPECT_GT(through.worstCrossings, 0);
+}
+
+TEST(FemContact, AnFemCubeDroppedOnAnFemBlockRestsOnItWithoutCrossingIt) {
+    std::string text = clothOnBlock(true);
+    text = text.substr(0, text.find("[[entity]]\nname = \"cloth\"")) + R"(
+[[entity]]
+name = "cube"
+[entity.transform]
+position = [0.05, 0.6, -0.04]
+[entity.fem]
+mesh = "box"
+size = [0.2, 0.2, 0.2]
+resolution = [2, 2, 2]
+young = 5.0e4
+density = 300.0
+angular_velocity = [0.5, 0.0, 0.8]
+thickness = 0.01
+self_collision = true
+)";
+    double cubeLowest = 0.0, blockTop = 0.0;
+    const Outcome o = judge(text, {"cube", "block"}, Colliders{}, 90, [&](Simulation& sim) {
+        double y = 1e300;
+        for (const Vec3& p : test::component<SpringNetwork>(sim, "cube").x) {
+            y = std::min(y, p.y);
+        }
+        cubeLowest = y;
+        blockTop = highestNear(test::component<SpringNetwork>(sim, "block"), 0.31);
+    });
+    EXPECT_EQ(o.worstCrossings, 0) << "first at step " << o.stepOfFirst;
+    // on the block's top (it fell 0.2 m onto it; through it, it would lie on the ground)
+    EXPECT_GT(cubeLowest, 0.25);
+    EXPECT_LT(cubeLowest, blockTop + 0.03);
+}
+
+TEST(FemContact, AnFemBallDroppedIntoAPinnedClothIsCaughtByIt) {
+    const std::string text = R"(
+[scene]
+name = "ball_in_cloth"
+dt = 0.008333333333
+substeps = 2
+[[entity]]
+name = "floor"
+[entity.rigid_body]
+shape = "plane"
+[[entity]]
+name = "ball"
+[entity.transform]
+position = [0.03, 1.0, -0.02]
+[entity.fem]
+mesh = "sphere"
+radius = 0.2
+resolution = 4
+young = 5.0e4
+density = 60.0
+thickness = 0.01
+self_collision = true
+[[entity]]
+name = "net"
+[entity.transform]
+position = [0.0, 0.5, 0.0]
+[entity.cloth]
+rows = 20
+cols = 20
+size = [1.2, 1.2]
+plane = "xz"
+stretch = 5000.0
+shear = 500.0
+bend = 1.0
+pin = "corners"
+integrator = "implicit_euler"
+thickness = 0.02
+self_collision = true
+)";
+    double ballLowest = 0.0, clothLowest = 0.0;
+    const auto lowest = [](const SpringNetwork& net) {
+        double y = 1e300;
+        for (const Vec3& p : net.x) {
+            y = std::min(y, p.y);
+        }
+        return y;
+    };
+    const Outcome o = judge(text, {"ball", "net"}, Colliders{}, 120, [&](Simulation& sim) {
+        ballLowest = lowest(test::component<SpringNetwork>(sim, "ball"));
+        clothLowest = lowest(test::component<SpringNetwork>(sim, "net"));
+    });
+    EXPECT_EQ(o.worstCrossings, 0) << "first at step " << o.stepOfFirst;
+    // held in the sagging cloth, above its lowest point and well above the ground
+    EXPECT_GT(ballLowest, clothLowest + 0.01);
+    EXPECT_GT(ballLowest, 0.15);
+}
 
 // ---- the candidate lists keep their promise -------------------------------------------------------------
 

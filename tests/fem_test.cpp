@@ -370,6 +370,11 @@ TEST(Fem, BadMaterialsAndPinsAreRefusedAtTheirLine) {
     expectRefused(femScene("mesh = \"cube\"\n"), "TetGen .ele");
     expectRefused(femScene("resolution = [2.5, 2, 2]\n"), "whole numbers");
     expectRefused(femScene("youngs = 1.0\n"), "youngs");
+    // a surface in contact: a thickness, and one within its mean edge (a 1 m box of 4 cells: two sides of
+    // 0.25 m and a diagonal a triangle, 0.2845 m)
+    expectRefused(femScene("self_collision = true\nthickness = 0.0\n"), "must be above 0");
+    expectRefused(femScene("self_collision = true\nthickness = 0.3\n"), "mean surface edge (0.2845");
+    expectRefused(femScene("self_collision = 1\n"), "self_collision");
 }
 
 std::string writeTetGen(const std::string& stem, const std::string& nodes, const std::string& ele) {
