@@ -861,7 +861,8 @@ std::optional<std::string> sameShape(const SpringNetwork& b, const SpringNetwork
                            "masses' weight, pins and the like can");
     }
     if (b.selfCollision != a.selfCollision) {
-        return std::string("cloth.self_collision cannot change during a run");
+        return std::string(
+            "self_collision cannot change during a run (it puts the surface into cloth contact)");
     }
     if (b.fem.tets != a.fem.tets || b.fem.volume != a.fem.volume) {
         return std::string("an fem body's mesh cannot change during a run (mesh, size, radius, resolution); "

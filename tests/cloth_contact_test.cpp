@@ -279,6 +279,33 @@ self_collision = true
 )";
 }
 
+/// The lowest point of the net's masses.
+double lowestOf(const SpringNetwork& net) {
+    double y = 1e300;
+    for (const Vec3& p : net.x) {
+        y = std::min(y, p.y);
+    }
+    return y;
+}
+
+/// Whether an fem body's tetrahedra all keep their rest orientation (contact moves only the surface's
+/// nodes: it must not turn an element inside out).
+bool upright(const SpringNetwork& net) {
+    for (const auto& t : net.fem.tets) {
+        const Vec3 a = net.x[t[1]] - net.x[t[0]], b = net.x[t[2]] - net.x[t[0]],
+                   c = net.x[t[3]] - net.x[t[0]];
+        if (!(dot(a, cross(b, c)) > 0.0)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/// What contact did over the run: no step may have ended held still (every cap reached).
+void expectContactSettled(Simulation& sim) {
+    EXPECT_EQ(sim.world().resource<ClothContactStats>().stepsHeldStill, 0u);
+}
+
 /// The highest point of the net's masses within `reach` of the vertical axis through the origin.
 double highestNear(const SpringNetwork& net, double reach) {
     double top = -1e300;
@@ -304,6 +331,8 @@ TEST(FemContact, AClothDroppedOnAnFemBlockRestsOnItsSurfaceWithoutCrossingIt) {
         }
         clothLowest = lowest;
         clothOver = highestNear(cloth, 0.2);
+        EXPECT_TRUE(upright(block));
+        expectContactSettled(sim);
     });
     EXPECT_EQ(o.worstCrossings, 0) << "first at step " << o.stepOfFirst;
     // it lies on the block's top (0.3 m, pressed a little by the cloth), a thickness or so above it
@@ -318,9 +347,10 @@ TEST(FemContact, AClothDroppedOnAnFemBlockRestsOnItsSurfaceWithoutCrossingIt) {
     EXPECT_GT(through.worstCrossings, 0);
 }
 
-TEST(FemContact, AnFemCubeDroppedOnAnFemBlockRestsOnItWithoutCrossingIt) {
-    std::string text = clothOnBlock(true);
-    text = text.substr(0, text.find("[[entity]]\nname = \"cloth\"")) + R"(
+/// A soft fem cube (0.2 m, 2 cells a side) dropped turning from 0.2 m above the block of clothOnBlock.
+std::string cubeOnBlock(bool cubeInContact) {
+    const std::string block = clothOnBlock(true);
+    return block.substr(0, block.find("[[entity]]\nname = \"cloth\"")) + R"(
 [[entity]]
 name = "cube"
 [entity.transform]
@@ -333,21 +363,28 @@ young = 5.0e4
 density = 300.0
 angular_velocity = [0.5, 0.0, 0.8]
 thickness = 0.01
-self_collision = true
-)";
+self_collision = )" +
+           (cubeInContact ? "true" : "false") + "\n";
+}
+
+TEST(FemContact, AnFemCubeDroppedOnAnFemBlockRestsOnItWithoutCrossingIt) {
     double cubeLowest = 0.0, blockTop = 0.0;
-    const Outcome o = judge(text, {"cube", "block"}, Colliders{}, 90, [&](Simulation& sim) {
-        double y = 1e300;
-        for (const Vec3& p : test::component<SpringNetwork>(sim, "cube").x) {
-            y = std::min(y, p.y);
-        }
-        cubeLowest = y;
-        blockTop = highestNear(test::component<SpringNetwork>(sim, "block"), 0.31);
+    const Outcome o = judge(cubeOnBlock(true), {"cube", "block"}, Colliders{}, 90, [&](Simulation& sim) {
+        cubeLowest = lowestOf(test::component<SpringNetwork>(sim, "cube"));
+        // the top's middle node, under the cube: pressed the most
+        blockTop = highestNear(test::component<SpringNetwork>(sim, "block"), 0.1);
+        EXPECT_TRUE(upright(test::component<SpringNetwork>(sim, "cube")));
+        EXPECT_TRUE(upright(test::component<SpringNetwork>(sim, "block")));
+        expectContactSettled(sim);
     });
     EXPECT_EQ(o.worstCrossings, 0) << "first at step " << o.stepOfFirst;
-    // on the block's top (it fell 0.2 m onto it; through it, it would lie on the ground)
-    EXPECT_GT(cubeLowest, 0.25);
+    // on the block's top, about a thickness above it (it fell 0.2 m onto it)
+    EXPECT_GT(blockTop, 0.28);
+    EXPECT_GT(cubeLowest, blockTop - 0.002);
     EXPECT_LT(cubeLowest, blockTop + 0.03);
+    // the cube out of contact falls through the block to the ground
+    judge(cubeOnBlock(false), {"cube", "block"}, Colliders{}, 90,
+          [&](Simulation& sim) { EXPECT_LT(lowestOf(test::component<SpringNetwork>(sim, "cube")), 0.05); });
 }
 
 TEST(FemContact, AnFemBallDroppedIntoAPinnedClothIsCaughtByIt) {
@@ -390,20 +427,16 @@ thickness = 0.02
 self_collision = true
 )";
     double ballLowest = 0.0, clothLowest = 0.0;
-    const auto lowest = [](const SpringNetwork& net) {
-        double y = 1e300;
-        for (const Vec3& p : net.x) {
-            y = std::min(y, p.y);
-        }
-        return y;
-    };
     const Outcome o = judge(text, {"ball", "net"}, Colliders{}, 120, [&](Simulation& sim) {
-        ballLowest = lowest(test::component<SpringNetwork>(sim, "ball"));
-        clothLowest = lowest(test::component<SpringNetwork>(sim, "net"));
+        ballLowest = lowestOf(test::component<SpringNetwork>(sim, "ball"));
+        clothLowest = lowestOf(test::component<SpringNetwork>(sim, "net"));
+        EXPECT_TRUE(upright(test::component<SpringNetwork>(sim, "ball")));
+        expectContactSettled(sim);
     });
     EXPECT_EQ(o.worstCrossings, 0) << "first at step " << o.stepOfFirst;
-    // held in the sagging cloth, above its lowest point and well above the ground
+    // lying in the sagging cloth: above its lowest point, within a few centimetres of it, above the ground
     EXPECT_GT(ballLowest, clothLowest + 0.01);
+    EXPECT_LT(ballLowest, clothLowest + 0.06);
     EXPECT_GT(ballLowest, 0.15);
 }
 
