@@ -262,7 +262,7 @@ void WorkerPool::workerMain(int index) {
             continue;
         }
         // nothing to do: spin a moment for the next loop, then sleep until one is posted
-        const auto start = std::chrono::steady_clock::now();
+        auto start = std::chrono::steady_clock::now();
         bool posted = false;
         for (unsigned k = 0;; ++k) {
             if (m_epoch.load(std::memory_order_acquire) != seen) {
@@ -270,8 +270,16 @@ void WorkerPool::workerMain(int index) {
                 break;
             }
             relax();
-            if ((k & 15) == 15 && std::chrono::steady_clock::now() - start > kSpin) {
-                break;
+            if ((k & 15) == 15) {
+                const auto now = std::chrono::steady_clock::now();
+                if (m_awake.load(std::memory_order_relaxed) > 0) {
+                    // kept awake: still polling, the core offered to threads with work, and the usual
+                    // moment of spinning counted from the last poll that found an Awake
+                    start = now;
+                    std::this_thread::yield();
+                } else if (now - start > kSpin) {
+                    break;
+                }
             }
         }
         std::unique_lock lock(m_mutex);
@@ -287,6 +295,15 @@ void WorkerPool::workerMain(int index) {
             }
         }
     }
+}
+
+WorkerPool::Awake::Awake(WorkerPool& pool) : m_pool(pool) {
+    pool.m_awake.fetch_add(1, std::memory_order_relaxed);
+    pool.signal(); // sleeping workers wake, find nothing, and spin while an Awake lives
+}
+
+WorkerPool::Awake::~Awake() {
+    m_pool.m_awake.fetch_sub(1, std::memory_order_relaxed);
 }
 
 void WorkerPool::signal() {

@@ -136,6 +136,21 @@ public:
     /// thread), 1 .. threads - 1 for the workers. Labels the trace's tracks.
     static int threadIndex();
 
+    /// While one lives, the pool's idle workers spin (yielding the core between polls after the usual
+    /// moment) rather than sleep, and sleeping ones are woken: for work run on the calling thread alone
+    /// that the pool will follow at once, so that the pool's first loop after it does not pay for waking
+    /// them (engine/thread_choice.h's trials, which alternate the two ways).
+    class Awake {
+    public:
+        explicit Awake(WorkerPool& pool);
+        ~Awake();
+        Awake(const Awake&) = delete;
+        Awake& operator=(const Awake&) = delete;
+
+    private:
+        WorkerPool& m_pool;
+    };
+
 private:
     using ChunkFn = void (*)(void* fn, std::size_t chunk, std::size_t begin, std::size_t end);
     struct Job;
@@ -162,6 +177,7 @@ private:
     std::atomic<std::uint64_t> m_epoch{0}; ///< bumped whenever a job is posted
     int m_parked = 0;
     bool m_stop = false;
+    std::atomic<int> m_awake{0}; ///< Awake objects alive: idle workers do not sleep
 };
 
 /// A pool of one thread (no workers): for code that runs a chunked loop with no pool at hand.

@@ -65,9 +65,17 @@ void ThreadChoice::record(int threads, double seconds) {
     m_run = m_run + 1 == kCycleEnd ? kSkip : m_run + 1;
 }
 
+bool ThreadChoice::inTrial() const {
+    return m_run >= kSkip && m_run - kSkip < kTrialRuns;
+}
+
 ThreadChoice::Run::Run(ThreadChoice& choice, WorkerPool& pool)
-    : m_choice(choice), m_threads(pool.threads()), m_use(choice.share(m_threads) ? pool : serialPool()),
-      m_start(std::chrono::steady_clock::now()) {}
+    : m_choice(choice), m_threads(pool.threads()), m_use(choice.share(m_threads) ? pool : serialPool()) {
+    if (&m_use != &pool && m_threads > 1 && choice.inTrial()) {
+        m_awake.emplace(pool); // the next run of the trial shares: its workers should not have to be woken
+    }
+    m_start = std::chrono::steady_clock::now();
+}
 
 ThreadChoice::Run::~Run() {
     const std::chrono::duration<double> took = std::chrono::steady_clock::now() - m_start;

@@ -23,6 +23,9 @@
 // runs of the chosen way are a check: if, with their median in place of the chosen way's trial median, the
 // trial would have gone the other way (a trial misled by noise, or the machine's other core taken since),
 // the next run starts a trial at once. A pool of another size (Simulation::setThreads) starts a trial too.
+// During a trial's runs on one thread the pool's workers are kept awake (WorkerPool::Awake): the run after
+// each shares, and waking sleeping workers for it (a thread switch on each vCPU: tens of microseconds on a
+// VM) would be counted against sharing, which a run after a shared one does not pay.
 //
 // Systems do not read the wall clock (STYLE.md) for what they compute; this reads it for where the work
 // runs only, as the schedule's choice of running a phase side by side does.
@@ -31,6 +34,7 @@
 
 #include <array>
 #include <chrono>
+#include <optional>
 
 namespace tumble {
 
@@ -50,6 +54,8 @@ public:
     void record(int threads, double seconds);
     /// The way the last trial chose (true before the first trial ends).
     bool sharing() const { return m_sharing; }
+    /// Whether the next run is one of a trial's.
+    bool inTrial() const;
 
     /// Times one run: picks the pool it should use and records its time when it ends.
     class Run {
@@ -65,6 +71,8 @@ public:
         ThreadChoice& m_choice;
         int m_threads;
         WorkerPool& m_use;
+        std::optional<WorkerPool::Awake>
+            m_awake; ///< in a trial's runs on one thread (see the header comment)
         std::chrono::steady_clock::time_point m_start;
     };
 

@@ -135,6 +135,26 @@ TEST(WorkerPool, NestedLoopsFinish) {
     }
 }
 
+// Workers kept awake (WorkerPool::Awake, held by a thread-count trial's runs on one thread) still take the
+// loops posted meanwhile and after, nested ones too, and the pool stops when it goes, workers asleep or not.
+TEST(WorkerPool, AwakeWorkersStillTakeLoopsAndStop) {
+    for (int threads : kThreadCounts) {
+        WorkerPool pool(threads);
+        std::atomic<long> total{0};
+        {
+            const WorkerPool::Awake first(pool);
+            const WorkerPool::Awake second(pool);
+            std::this_thread::sleep_for(std::chrono::milliseconds(2)); // past the workers' moment of spinning
+            pool.forChunks(8, 1, [&](std::size_t, std::size_t, std::size_t) {
+                pool.forEach(1000, 10, [&](std::size_t i) { total.fetch_add(long(i)); });
+            });
+        }
+        pool.forEach(1000, 10, [&](std::size_t i) { total.fetch_add(long(i)); });
+        EXPECT_EQ(total.load(), 9L * 999 * 1000 / 2) << threads << " threads";
+        { const WorkerPool::Awake last(pool); }
+    }
+}
+
 TEST(WorkerPool, WorkersComputeInTheCallersFloatingPointMode) {
     // with denormals flushed, the smallest normal float halved is zero; without, it is a denormal. Every
     // chunk must see the caller's mode, whichever thread runs it

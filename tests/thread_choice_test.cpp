@@ -158,6 +158,19 @@ TEST(ThreadChoice, AnotherThreadCountStartsATrial) {
     EXPECT_FALSE(choice.share(3));
 }
 
+// The trials' runs, and no other, are in a trial (a Run on one thread keeps the pool awake then): the
+// first trial after the skipped runs, and the next one after the period.
+TEST(ThreadChoice, InTrialIsTrueForTheTrialsRunsAlone) {
+    ThreadChoice choice;
+    constexpr int kSecondTrial = kFirstTrialEnds + ThreadChoice::kPeriod;
+    for (int i = 0; i < kSecondTrial + 2 * ThreadChoice::kTrial + 3; ++i) {
+        const bool expected = (i >= ThreadChoice::kSkip && i < kFirstTrialEnds) ||
+                              (i >= kSecondTrial && i < kSecondTrial + 2 * ThreadChoice::kTrial);
+        ASSERT_EQ(choice.inTrial(), expected) << "run " << i;
+        choice.record(kTwo, choice.share(kTwo) ? 1e-3 : 1.1e-3);
+    }
+}
+
 TEST(ThreadChoice, ARunRecordsItselfWhenItEnds) {
     // runs through Run alone, no times fed by hand: the skipped runs and the trial's first share, its second
     // runs alone, which it can only know if each Run recorded itself

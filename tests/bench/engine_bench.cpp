@@ -12,6 +12,8 @@
 #include <benchmark/benchmark.h>
 
 #include <array>
+#include <chrono>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -153,6 +155,31 @@ void BM_PoolForkJoinEmpty(benchmark::State& state) {
     }
 }
 BENCHMARK(BM_PoolForkJoinEmpty)->Arg(1)->Arg(2);
+
+// one fork-join (four chunks of almost nothing) after the calling thread has worked alone for 1 ms (not
+// timed; a fixed count of iterations, as the timed part is microseconds), by
+// which time idle workers have gone to sleep: with them asleep (0), and kept awake meanwhile (1,
+// WorkerPool::Awake, as a thread-count trial's runs on one thread do): what waking them costs the loop
+void BM_PoolForkJoinAfterWorkAlone(benchmark::State& state) {
+    WorkerPool pool(2);
+    std::array<double, 64> x{};
+    for (auto _ : state) {
+        state.PauseTiming();
+        {
+            std::optional<WorkerPool::Awake> awake;
+            if (state.range(0) != 0) {
+                awake.emplace(pool);
+            }
+            const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(1);
+            while (std::chrono::steady_clock::now() < until) {
+            }
+        }
+        state.ResumeTiming();
+        pool.forChunks(4, 1, [&](std::size_t c, std::size_t, std::size_t) { x[8 * c] += 1.0; });
+        benchmark::ClobberMemory();
+    }
+}
+BENCHMARK(BM_PoolForkJoinAfterWorkAlone)->Arg(0)->Arg(1)->Iterations(1000)->Unit(benchmark::kMicrosecond);
 
 // a loop cut as the implicit solver cuts a 100 x 100 cloth's vector updates (10,201 rows of 16 bytes, in
 // chunks of 128 rows: 80 chunks), a little work a row: what claiming many small chunks costs
