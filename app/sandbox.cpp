@@ -91,12 +91,10 @@ struct Sandbox::State {
 
     /// One entity's table of the dump (as the whole dump line has it), or a ScenarioError.
     nlohmann::json entityDump(const std::string& name) const {
-        const auto [e, codec] = dumped(name);
+        const Entity e = dumped(name).first;
         std::string out;
         JsonWriter w(out);
-        w.beginObject().key("kind").value(codec->kind);
-        codec->dump(sim->world(), e, w);
-        w.endObject();
+        dumpEntity(w, sim->world(), sim->catalog(), e);
         return nlohmann::json::parse(quoteNonFinite(std::move(out)));
     }
 

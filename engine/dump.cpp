@@ -17,18 +17,46 @@ void appendDumpLine(std::string& out, const World& world, const Catalog& catalog
         if (!name) {
             continue;
         }
-        // the first codec that claims the entity gives its kind
-        for (const StateCodec& codec : catalog.states()) {
-            if (codec.has(world, e)) {
-                w.key(name->value).beginObject().key("kind").value(codec.kind);
-                codec.dump(world, e, w);
-                w.endObject();
-                break;
-            }
+        if (claimed(world, catalog, e)) {
+            w.key(name->value);
+            dumpEntity(w, world, catalog, e);
         }
     }
     w.endObject().endObject();
     out += '\n';
+}
+
+bool claimed(const World& world, const Catalog& catalog, Entity e) {
+    for (const StateCodec& codec : catalog.states()) {
+        if (codec.has(world, e)) {
+            return true;
+        }
+    }
+    return false;
+}
+
+void dumpEntity(JsonWriter& w, const World& world, const Catalog& catalog, Entity e) {
+    // the first codec that claims the entity gives its kind and its fields; any other one (a body that is
+    // also an emitter) its fields in an object of their own, under its kind
+    bool first = true;
+    for (const StateCodec& codec : catalog.states()) {
+        if (!codec.has(world, e)) {
+            continue;
+        }
+        if (first) {
+            w.beginObject().key("kind").value(codec.kind);
+        } else {
+            w.key(codec.kind).beginObject();
+        }
+        codec.dump(world, e, w);
+        if (!first) {
+            w.endObject();
+        }
+        first = false;
+    }
+    if (!first) {
+        w.endObject();
+    }
 }
 
 std::uint64_t entityHash(const World& world, const Catalog& catalog, Entity e, WorkerPool* pool) {

@@ -15,6 +15,13 @@ namespace tumble {
 void appendDumpLine(std::string& out, const World& world, const Catalog& catalog, std::uint64_t frame,
                     double t, std::uint64_t hash);
 
+/// Whether some state codec claims the entity (the dump lists it).
+bool claimed(const World& world, const Catalog& catalog, Entity e);
+/// Writes an entity's object of the dump: {"kind": the first codec's kind, its fields, then, for each other
+/// codec that claims the entity (a body that is also an emitter), its kind: {its fields}}. Nothing for an
+/// entity no codec claims.
+void dumpEntity(JsonWriter& w, const World& world, const Catalog& catalog, Entity e);
+
 /// 64-bit hash of every simulated byte in the world (every codec's bytes, entity by entity). `pool`
 /// (optional) hashes long arrays on its workers, with the same result (engine/hash.h).
 std::uint64_t stateHash(const World& world, const Catalog& catalog, WorkerPool* pool = nullptr);

@@ -145,6 +145,50 @@ TEST(Simulation, DumpLineHasTheContractFieldsAndRoundTrips) {
     }
 }
 
+// An entity with two kinds of state (a falling body that is also an emitter, an air grid that emits) keeps
+// both in the dump: the first kind's fields as ever, the other's in an object under its kind. The body's
+// numbers are the ones the same body dumps without the emitter (which changes nothing of its motion).
+TEST(Simulation, AnEntityWithTwoKindsOfStateDumpsBoth) {
+    const std::string body = R"(
+[scene]
+name = "two_kinds"
+dt = 0.01
+[[entity]]
+name = "ball"
+[entity.transform]
+position = [0.0, 1.2, 0.0]
+[entity.rigid_body]
+shape = "sphere"
+radius = 0.1
+mass = 1.0
+)";
+    const std::string emitter = R"(
+[entity.emitter]
+rate = 200.0
+max_particles = 50
+)";
+    auto plain = makeSimulation(body);
+    auto both = makeSimulation(body + emitter);
+    for (int i = 0; i < 20; ++i) {
+        plain->runFrame();
+        both->runFrame();
+    }
+    std::string line, reference;
+    both->appendDump(line);
+    plain->appendDump(reference);
+    const auto ball = nlohmann::json::parse(line)["entities"]["ball"];
+    const auto alone = nlohmann::json::parse(reference)["entities"]["ball"];
+    ASSERT_EQ(alone["kind"], "rigid");
+    ASSERT_TRUE(ball.contains("kind") && ball.contains("x") && ball.contains("count")) << ball.dump();
+    ASSERT_TRUE(ball.contains("rigid")) << "the body's state is missing: " << ball.dump();
+    EXPECT_EQ(ball["kind"], "particles");
+    EXPECT_GT(ball["count"].get<int>(), 0);
+    for (const char* field : {"x", "q", "v", "w"}) {
+        EXPECT_EQ(ball["rigid"][field], alone[field]) << field;
+    }
+    EXPECT_LT(ball["rigid"]["x"][0][1].get<double>(), 1.0) << "it fell";
+}
+
 TEST(Simulation, ABlowUpIsCaughtFrozenAndReported) {
     // a spring far too stiff for its step: explicit Euler diverges
     auto sim = makeSimulation(std::string("[scene]\nname = \"boom\"\ndt = 0.0166666667\n") +
