@@ -51,6 +51,9 @@ struct FemElements {
     double mu = 0.0;               ///< Pa, shear modulus
     double stiffnessDamping = 0.0; ///< s, Rayleigh: damping force -beta K v
     double massDamping = 0.0;      ///< 1/s, Rayleigh: damping force -alpha M v
+    /// m/s and rad/s: the body's motion at the start (`linear_velocity`, `angular_velocity`), kept so that
+    /// a set event of either gives the body that motion again; not state (the nodes' v are)
+    Vec3 startLinear, startAngular;
 };
 
 /// A mass held by a rigid body ([[joint]] type "anchor"): it moves with the body's point, and the body

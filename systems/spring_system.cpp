@@ -386,6 +386,23 @@ void checkFemContact(TableReader& r, SpringNetwork& net) {
     net.selfCollision = true;
 }
 
+/// Gives every free node of an fem body its start motion (FemElements::startLinear, startAngular): v + w x
+/// (x - the centre of mass), where the nodes are now (at the load, where the mesh puts them at rest).
+void giveRigidMotion(SpringNetwork& net) {
+    Vec3 com;
+    double total = 0.0;
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        com += net.x[i] * (1.0 / net.invMass[i]);
+        total += 1.0 / net.invMass[i];
+    }
+    com = com * (1.0 / total);
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        if (!net.pinned[i]) {
+            net.v[i] = net.fem.startLinear + cross(net.fem.startAngular, net.x[i] - com);
+        }
+    }
+}
+
 /// [entity.fem] (README, "Finite-element bodies").
 void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
     const Vec3 centre = world.get<Transform>(entity).position;
@@ -430,19 +447,9 @@ void loadFem(TableReader& r, World& world, Entity entity, const SceneDef&) {
     if (selfCollision) {
         checkFemContact(r, net);
     }
-    // the start's velocity: v + w x (x - centre of mass)
-    Vec3 com;
-    double total = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-        com += net.x[i] * (1.0 / net.invMass[i]);
-        total += 1.0 / net.invMass[i];
-    }
-    com = com * (1.0 / total);
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!net.pinned[i]) {
-            net.v[i] = Vec3{lin[0], lin[1], lin[2]} + cross(Vec3{ang[0], ang[1], ang[2]}, net.x[i] - com);
-        }
-    }
+    net.fem.startLinear = {lin[0], lin[1], lin[2]};
+    net.fem.startAngular = {ang[0], ang[1], ang[2]};
+    giveRigidMotion(net);
     net.implicitCharged = true;
     if (net.selfCollision) {
         world.emplace<ClothCollision>(entity, makeClothCollision(net.x));
@@ -898,6 +905,22 @@ void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw
     takeChanged(net.doublePrecisionSolve, was.doublePrecisionSolve, now.doublePrecisionSolve);
     takeChanged(net.implicitCharged, was.implicitCharged, now.implicitCharged);
     takeChanged(net.blowUpFails, was.blowUpFails, now.blowUpFails);
+    // velocities: a spring network's masses take those a set gives them ("v" of `springs` masses); an fem
+    // body whose `linear_velocity` or `angular_velocity` is set takes that motion again, about where its
+    // centre of mass is now (as a rigid body set to a velocity moves with it from where it is)
+    if (net.kind == NetworkKind::Fem) {
+        if (was.fem.startLinear != now.fem.startLinear || was.fem.startAngular != now.fem.startAngular) {
+            net.fem.startLinear = now.fem.startLinear;
+            net.fem.startAngular = now.fem.startAngular;
+            giveRigidMotion(net);
+        }
+    } else {
+        for (std::size_t i = 0; i < net.x.size(); ++i) {
+            if (!net.pinned[i]) {
+                takeChanged(net.v[i], was.v[i], now.v[i]);
+            }
+        }
+    }
     // a set of the transform moves the masses from where the entity is now to where the set puts it (the
     // load compared with may have it elsewhere again: engine/retune.cpp)
     const Vec3& to = aw.get<Transform>(a).position;
