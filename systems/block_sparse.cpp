@@ -3,7 +3,9 @@
 #include "systems/block_kernels.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 namespace tumble {
 
@@ -21,6 +23,14 @@ Mat3T<S> Mat3T<S>::inverse() const {
     r.m[7] = a[1] * a[6] - a[0] * a[7];
     r.m[8] = a[0] * a[4] - a[1] * a[3];
     const S det = a[0] * r.m[0] + a[1] * r.m[3] + a[2] * r.m[6];
+    if constexpr (std::is_same_v<S, float>) {
+        if (!std::isnormal(det)) {
+            // the determinant alone past float's range (a block's entries beyond about 7e12, a node of a
+            // body kilometres across, or under about 1e-13): in double, whose range takes the cube (in
+            // float the inverse came out zero, and the body never moved)
+            return cast<double>().inverse().template cast<float>();
+        }
+    }
     const S inv = S(1) / det;
     for (S& x : r.m) {
         x *= inv;
