@@ -35,7 +35,7 @@ std::string numberText(double v, bool integer) {
     }
     std::string s;
     appendNumber(s, v);
-    // the shortest text that reads back (0.2, not oneLineToml's 0.20000000000000001), still a TOML float
+    // the shortest text that reads back (0.2), still a TOML float
     if (s.find_first_not_of("-0123456789") == std::string::npos) {
         s += ".0";
     }

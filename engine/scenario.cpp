@@ -577,7 +577,15 @@ void readSetEvent(TableReader& r, EventDef& ev) {
     // that entity (entity = "curtain", key = "cloth.stretch").
     std::string key = r.requiredString("key");
     if (r.has("entity")) {
-        key = r.requiredString("entity") + "." + key;
+        const std::string entity = r.requiredString("entity");
+        // (a key that is its component's alone after the name, entity = "cloth" with key = "cloth.stretch",
+        // is the component's key: it is kept)
+        if (key.rfind(entity + ".", 0) == 0 && key.find('.', entity.size() + 1) != std::string::npos) {
+            r.fail("key", "key '" + key + "' names the entity that 'entity' already gives: within entity '" +
+                              entity + "' the key is '" + key.substr(entity.size() + 1) +
+                              "' (or leave out 'entity' and keep the whole key)");
+        }
+        key = entity + "." + key;
     }
     const toml::node* value = r.node("value");
     if (!value) {

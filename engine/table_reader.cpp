@@ -1,5 +1,7 @@
 #include "engine/table_reader.h"
 
+#include "engine/json.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -386,10 +388,14 @@ std::string oneLineToml(const toml::node& n) {
         return out + (first ? "}" : " }");
     }
     if (const auto* d = n.as_floating_point()) {
-        char text[40];
-        std::snprintf(text, sizeof text, "%.17g", d->get());
-        std::string out = text;
-        if (std::isfinite(d->get()) && out.find_first_of(".eE") == std::string::npos) {
+        const double v = d->get();
+        if (!std::isfinite(v)) {
+            return std::isnan(v) ? "nan" : v > 0.0 ? "inf" : "-inf";
+        }
+        // the shortest text that reads back to the same double (1.1, not 1.1000000000000001)
+        std::string out;
+        appendNumber(out, v);
+        if (out.find_first_of(".eE") == std::string::npos) {
             out += ".0"; // still a float
         }
         return out;

@@ -458,6 +458,13 @@ std::vector<BadCase> cases() {
          8,
          "set bob.springs.stifness=5.0: unknown key 'stifness' in entity 'bob' [springs] (did you mean "
          "'stiffness'?)"},
+        // the value echoed as short as it reads back (it read 1.1000000000000001)
+        {"set_event_echoes_its_value_shortest",
+         kScene + kBob +
+             "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.stifness\"\nvalue = 1.1\n",
+         {},
+         8,
+         "set bob.springs.stifness=1.1: unknown key 'stifness'"},
         {"set_event_value_out_of_range",
          kScene + kBob +
              "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.stiffness\"\nvalue = -3\n",
@@ -481,6 +488,16 @@ std::vector<BadCase> cases() {
          {},
          8,
          "set bob.springs.stifness=1: unknown key 'stifness' in entity 'bob' [springs]"},
+        // found by running scenes nobody here wrote: the entity named twice read "set bob.bob.springs..."
+        // and then that 'bob' cannot change
+        {"set_event_key_repeats_the_entity",
+         kScene + kBob +
+             "[[event]]\nat = 1.0\nentity = \"bob\"\naction = \"set\"\nkey = \"bob.springs.stiffness\"\n"
+             "value = 1\n",
+         {},
+         12,
+         "key 'bob.springs.stiffness' names the entity that 'entity' already gives: within entity 'bob' the "
+         "key is 'springs.stiffness'"},
         {"set_event_without_value",
          kScene + kBob + "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.drag\"\n",
          {},
