@@ -62,7 +62,10 @@ readPins(TableReader& r, std::size_t masses, const std::string& fallback,
     std::vector<std::uint32_t> pins;
     const toml::node* n = r.node("pin");
     if (n && n->is_array()) {
-        const toml::array* list = r.array("pin", masses);
+        // any length: a list longer than the masses holds an index out of range or one twice, and says which
+        // (at most masses + 1 items are read)
+        const toml::array* list = r.array("pin", std::numeric_limits<std::size_t>::max());
+        std::vector<std::uint8_t> listed(masses, 0);
         for (const toml::node& item : *list) {
             // a float is refused before it is read as an integer (1e308 does not fit one)
             const auto i = item.is_integer() ? item.value<std::int64_t>() : std::nullopt;
@@ -70,6 +73,11 @@ readPins(TableReader& r, std::size_t masses, const std::string& fallback,
                 r.failAt(item, "'pin' in " + r.where() + " lists mass indices, each a whole number in [0, " +
                                    std::to_string(masses - 1) + "]");
             }
+            if (listed[std::size_t(*i)]) {
+                r.failAt(item, "'pin' in " + r.where() + " lists mass " + std::to_string(*i) +
+                                   " twice (a typo for another index?)");
+            }
+            listed[std::size_t(*i)] = 1;
             pins.push_back(static_cast<std::uint32_t>(*i));
         }
         return pins;

@@ -451,6 +451,14 @@ std::vector<BadCase> cases() {
          "[render] (8192 x 8192 frames) needs about 3.5 GiB"},
         // found measuring the loader: a 400x400 self-colliding sheet 1 m across took 9 GiB and ten minutes a
         // the set event: the same schema as --set, located at the event, and what a run cannot take
+        // a mass pinned twice is a typo for another (found by running scenes nobody here wrote: 27 entries
+        // on 25 masses read "at most 25 are allowed")
+        {"cloth_pins_a_mass_twice",
+         kScene + "[[entity]]\nname = \"sheet\"\n[entity.cloth]\nrows = 5\ncols = 5\n"
+                  "pin = [0, 1, 2, 3,\n 4, 2, 6]\n",
+         {},
+         9,
+         "'pin' in entity 'sheet' [cloth] lists mass 2 twice"},
         {"set_event_misspelt_key",
          kScene + kBob +
              "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.stifness\"\nvalue = 5.0\n",
