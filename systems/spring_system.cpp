@@ -413,7 +413,6 @@ void giveRigidMotion(SpringNetwork& net) {
     }
 }
 
-/// [entity.fem] (README, "Finite-element bodies").
 /// How many elements the material's pressure waves cross in a step, past which the solve fails: sqrt((lambda
 /// + 2 mu) / rho) h / L, L the cube root of an element's volume. The step's matrix is M + h^2 K (and h K's
 /// damping), and K's rows sum to zero along a rigid motion only to float's precision, 1e-7 of h^2 K: once
@@ -443,6 +442,7 @@ void checkFemStiffness(TableReader& r, const SpringNetwork& net, double density,
     }
 }
 
+/// [entity.fem] (README, "Finite-element bodies").
 void loadFem(TableReader& r, World& world, Entity entity, const SceneDef& scene) {
     const Vec3 centre = world.get<Transform>(entity).position;
     std::array<int, 3> cells{};
