@@ -197,9 +197,16 @@ std::optional<std::string> checkSet(const Catalog& catalog, const Scenario& scen
     std::optional<Scratch> before, after;
     try {
         before.emplace(catalog, scenario, earlier, memoryCap);
-        after.emplace(catalog, scenario, with, memoryCap);
     } catch (const ScenarioError& e) {
         return e.message();
+    }
+    try {
+        after.emplace(catalog, scenario, with, memoryCap);
+    } catch (const ScenarioError& e) {
+        // the loader names the set where the set's own key or value is at fault; what the set breaks
+        // elsewhere (a source left outside its moved air grid) it does not
+        const std::string message = e.message();
+        return message.rfind(quoted(spec), 0) == 0 ? message : quoted(spec) + ": with it, " + message;
     }
     if (auto problem = cannotTake(catalog, *before, *after)) {
         return quoted(spec) + ": " + *problem;

@@ -506,6 +506,17 @@ std::vector<BadCase> cases() {
          12,
          "key 'bob.springs.stiffness' names the entity that 'entity' already gives: within entity 'bob' the "
          "key is 'springs.stiffness'"},
+        // what a set breaks elsewhere is put to the set (found by running scenes nobody here wrote: it read
+        // as the source's own fault, at the event's line)
+        {"set_event_leaves_a_source_outside",
+         kScene + "[[entity]]\nname = \"room\"\n[entity.air]\ncells = [8, 8, 8]\nsize = [2.0, 2.0, 2.0]\n"
+                  "[[entity]]\nname = \"fan\"\n[entity.air_source]\nair = \"room\"\n"
+                  "[[event]]\nat = 0.1\naction = \"set\"\nkey = \"room.transform.position\"\nvalue = [0.0, "
+                  "5.0, 0.0]\n",
+         {},
+         12,
+         "set room.transform.position=[0.0, 5.0, 0.0]: with it, the source at (0, 0, 0) is outside air "
+         "'room'"},
         {"set_event_without_value",
          kScene + kBob + "[[event]]\nat = 1.0\naction = \"set\"\nkey = \"bob.springs.drag\"\n",
          {},
