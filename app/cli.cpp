@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -266,6 +267,24 @@ const CLI::Validator nonEmpty(
     [](const std::string& value) { return value.empty() ? std::string("must not be empty") : std::string(); },
     "", "not empty");
 
+/// A number in [lo, hi]: CLI11's Range lets NaN through (no comparison with it fails), and a budget of NaN
+/// passed every frame.
+CLI::Validator numberIn(double lo, double hi) {
+    return CLI::Validator(
+        [lo, hi](const std::string& text) {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (text.empty() || end != text.c_str() + text.size() || !(v >= lo && v <= hi)) {
+                char message[120];
+                std::snprintf(message, sizeof message, "'%s' is not a number from %g to %g", text.c_str(), lo,
+                              hi);
+                return std::string(message);
+            }
+            return std::string();
+        },
+        "", "a number");
+}
+
 void addThreadsOption(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("--threads", o.threads,
                     "Threads the physics runs on (default: $TUMBLE_THREADS, else every hardware thread); any "
@@ -360,12 +379,12 @@ void addBudgetVerb(CLI::App& app, RunOptions& o) {
     budgetCmd
         ->add_option("--physics-ms", o.physicsMs,
                      "The budget, ms of physics a frame (default: [budget] physics_ms)")
-        ->check(CLI::Range(1e-6, 1e6));
+        ->check(numberIn(1e-6, 1e6));
     budgetCmd
         ->add_option("--scale", o.scale,
                      "Room for a slower machine: fail only above budget x S (default: $TUMBLE_BUDGET_SCALE, "
                      "else 1)")
-        ->check(CLI::Range(1e-6, 1e6));
+        ->check(numberIn(1e-6, 1e6));
     budgetCmd
         ->add_option("--chart", o.chart, "Write an SVG chart of physics time per frame with the budget line")
         ->type_name("FILE");

@@ -53,6 +53,51 @@ OutputFile::OutputFile(const std::string& path) : m_path(path) {
 
 namespace {
 
+/// A path as the file system resolves it, for telling whether two name the same file.
+fs::path resolved(const std::string& path) {
+    std::error_code ec;
+    fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+    return ec || p.empty() ? fs::absolute(path, ec).lexically_normal() : p;
+}
+
+/// Refuses outputs that would write over each other or over what the run reads (its scenario, replay,
+/// snapshot or --input file): the one written last would win, and the other be lost without a word.
+void checkOutputPaths(const RunOptions& o, const Source& src) {
+    using Named = std::pair<const char*, std::string>;
+    std::vector<Named> outputs;
+    for (const Named& n :
+         {Named{"--record", o.record}, Named{"--dump", o.dump}, Named{"--profile", o.profile},
+          Named{"--trace", o.trace}, Named{"--video", o.video}}) {
+        if (!n.second.empty()) {
+            outputs.push_back(n);
+        }
+    }
+    std::vector<Named> inputs;
+    std::error_code ec;
+    for (const Named& n :
+         {Named{"the scenario", src.path}, Named{"the replay", src.replayPath}, Named{"--input", o.input}}) {
+        if (!n.second.empty() && fs::is_regular_file(n.second, ec)) {
+            inputs.push_back(n);
+        }
+    }
+    for (std::size_t a = 0; a < outputs.size(); ++a) {
+        for (std::size_t b = a + 1; b < outputs.size(); ++b) {
+            if (resolved(outputs[a].second) == resolved(outputs[b].second)) {
+                throw ScenarioError(outputs[b].second, 0, 0,
+                                    std::string(outputs[a].first) + " and " + outputs[b].first +
+                                        " name the same file: one would write over the other");
+            }
+        }
+        for (const Named& in : inputs) {
+            if (resolved(outputs[a].second) == resolved(in.second)) {
+                throw ScenarioError(outputs[a].second, 0, 0,
+                                    std::string(outputs[a].first) + " names " + in.first +
+                                        " this run reads: it would be written over");
+            }
+        }
+    }
+}
+
 using Fail = std::function<void(const std::string&)>;
 
 /// A finite number within +-1e9 (as a scenario's), or a failure naming the key.
@@ -275,6 +320,17 @@ RunSession::RunSession(const Catalog& catalog, const RunOptions& o, const Source
     m_substeps = static_cast<std::uint64_t>(m_sim->scene().substeps);
     m_frames = framesToRun();
     m_snapshotAt = o.snapshotAt ? static_cast<std::uint64_t>(*o.snapshotAt) : 0;
+    if (m_snapshotAt > m_frames) {
+        throw ScenarioError("--snapshot-at", 0, 0,
+                            "--snapshot-at " + std::to_string(m_snapshotAt) +
+                                " is past the run's last frame (" + std::to_string(m_frames) +
+                                "): no snapshot would be written");
+    }
+    if (o.noRender && o.pngEvery > 0) {
+        throw ScenarioError("--png-every", 0, 0,
+                            "--png-every needs rendering; it cannot go with --no-render");
+    }
+    checkOutputPaths(o, src);
     m_outDir = o.out.empty() ? "out/" + m_sim->scene().name : o.out;
     if (!o.record.empty()) {
         m_recorder = std::make_unique<ReplayWriter>(

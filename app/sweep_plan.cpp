@@ -228,7 +228,9 @@ void readSweepTable(const toml::table& root, const LoadContext& ctx, Sweep& s) {
     } catch (const ScenarioError& e) {
         r.fail("scenario", e.what());
     }
-    s.frames = r.integer("frames", 0, 0, 1'000'000'000);
+    // left out, the scene's own frames (0 here); given, at least one (0 read as the scene's whole length,
+    // where `tumble run --frames 0` runs none)
+    s.frames = r.has("frames") ? r.integer("frames", 1, 1, 1'000'000'000) : 0;
     s.threads = int(r.integer("threads", 1, 1, kMaxThreads));
     s.repeats = int(r.integer("repeats", 1, 1, 1000));
     s.zip = r.choice("combine", "grid", {"grid", "zip"}) == "zip";

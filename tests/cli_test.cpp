@@ -205,6 +205,39 @@ TEST(Cli, UnwritableOutputFailsBeforeRunningWithExitOne) {
     }
 }
 
+// Options that would lose what a run writes, or do nothing without a word, are refused before it runs (found
+// by running the program as a reviewer who had not seen the code): two outputs on one file (the replay
+// was lost under the dump), an output over the scenario the run reads (the .toml became a dump line), a
+// snapshot past the last frame and PNGs without rendering (neither written, nothing said), and a budget
+// scale of NaN (every frame within it).
+TEST(Cli, OptionsThatWouldLoseOutputsOrDoNothingAreRefused) {
+    const std::string out = tempPath("refused_outputs");
+    const std::string same = tempPath("same.x");
+    auto r = runTumble(
+        {"run", "pendulum", "--no-render", "--frames", "2", "--record", same, "--dump", same, "--out", out});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--record and --dump name the same file"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(same)) << "refused before anything is written";
+    const std::string scenario =
+        writeTemp("own.toml", readFile(std::string(TUMBLE_SOURCE_DIR) + "/demos/rope.toml"));
+    const std::string text = readFile(scenario);
+    r = runTumble({"run", scenario, "--no-render", "--frames", "2", "--dump", scenario, "--out", out});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--dump names the scenario this run reads"), std::string::npos) << r.err;
+    EXPECT_EQ(readFile(scenario), text);
+    r = runTumble({"run", "pendulum", "--no-render", "--frames", "2", "--snapshot-at", "5", "--out", out});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("past the run's last frame (2)"), std::string::npos) << r.err;
+    r = runTumble({"run", "pendulum", "--no-render", "--frames", "2", "--png-every", "1", "--out", out});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--png-every needs rendering"), std::string::npos) << r.err;
+    for (const char* scale : {"nan", "-nan", "inf"}) {
+        r = runTumble({"budget", "pendulum", "--frames", "2", "--threads", "1", "--scale", scale});
+        EXPECT_EQ(r.exitCode, 2) << scale;
+        EXPECT_NE(r.err.find("is not a number from 1e-06 to 1e+06"), std::string::npos) << r.err;
+    }
+}
+
 TEST(Cli, ABlowUpIsSaidOnceTheRunGoesOnAndExitsOne) {
     const std::string scene =
         writeTemp("boom.toml", std::string("[scene]\nname = \"boom\"\n") + test::kBlowingUpBob);

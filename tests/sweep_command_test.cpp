@@ -232,6 +232,8 @@ TEST(SweepPlan, BadInputIsLocatedWithADidYouMean) {
         {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"y\"\n",
          "one of", 6},
         {"[sweep]\nscenario = \"rope\"\nthreads = 512\n", "outside", 3},
+        // frames = 0 ran the scene's whole length (found by a reviewer who had not seen the code)
+        {"[sweep]\nscenario = \"rope\"\nframes = 0\n", "'frames' in [sweep] is 0, outside [1,", 3},
         // an axis that changes nothing, or repeats cases, passed without a word
         {"[sweep]\nscenario = \"rope\"\nframes = 5\n[[axis]]\nkey = \"scene.frames\"\nvalues = [10, 20]\n",
          "would change nothing", 5},
