@@ -62,11 +62,13 @@ fs::path resolved(const std::string& path) {
 
 /// Refuses outputs that would write over each other or over what the run reads (its scenario, replay,
 /// snapshot or --input file): the one written last would win, and the other be lost without a word.
-void checkOutputPaths(const RunOptions& o, const Source& src) {
+/// The profile is always written: where --profile says, else <out>/profile.json (`profile`).
+void checkOutputPaths(const RunOptions& o, const Source& src, const std::string& profile) {
     using Named = std::pair<const char*, std::string>;
     std::vector<Named> outputs;
     for (const Named& n :
-         {Named{"--record", o.record}, Named{"--dump", o.dump}, Named{"--profile", o.profile},
+         {Named{"--record", o.record}, Named{"--dump", o.dump},
+          Named{o.profile.empty() ? "the profile (<out>/profile.json)" : "--profile", profile},
           Named{"--trace", o.trace}, Named{"--video", o.video}}) {
         if (!n.second.empty()) {
             outputs.push_back(n);
@@ -301,6 +303,7 @@ private:
     std::uint64_t m_frames = 0;     ///< the frame the run ends at
     std::uint64_t m_snapshotAt = 0; ///< --snapshot-at, or 0
     std::string m_outDir;
+    std::string m_profilePath; ///< --profile, else <out>/profile.json
     std::unique_ptr<ReplayWriter> m_recorder;
     std::vector<FrameRecord> m_history; ///< frames since the start, for --snapshot-at
     std::vector<EntityHash> m_entities; ///< scratch: each frame's entity hashes
@@ -330,8 +333,9 @@ RunSession::RunSession(const Catalog& catalog, const RunOptions& o, const Source
         throw ScenarioError("--png-every", 0, 0,
                             "--png-every needs rendering; it cannot go with --no-render");
     }
-    checkOutputPaths(o, src);
     m_outDir = o.out.empty() ? "out/" + m_sim->scene().name : o.out;
+    m_profilePath = o.profile.empty() ? m_outDir + "/profile.json" : o.profile;
+    checkOutputPaths(o, src, m_profilePath);
     if (!o.record.empty()) {
         m_recorder = std::make_unique<ReplayWriter>(
             o.record, ReplayHeader{kReplayVersion, buildId(), src.path, src.text, src.sets});
@@ -480,7 +484,7 @@ void RunSession::openOutputs() {
     if (!m_o.trace.empty()) {
         m_trace.emplace(m_o.trace);
     }
-    m_profile.emplace(m_o.profile.empty() ? m_outDir + "/profile.json" : m_o.profile);
+    m_profile.emplace(m_profilePath);
     m_sim->profiler().enableTrace(m_trace.has_value());
     // what the renderer is asked for (it is a frame-phase system and reads this)
     RenderOutput& render = m_sim->world().setResource<RenderOutput>();

@@ -225,6 +225,12 @@ TEST(Cli, OptionsThatWouldLoseOutputsOrDoNothingAreRefused) {
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--dump names the scenario this run reads"), std::string::npos) << r.err;
     EXPECT_EQ(readFile(scenario), text);
+    // the profile is written even when not asked for, into the output folder: a dump there was lost
+    r = runTumble(
+        {"run", "pendulum", "--no-render", "--frames", "2", "--dump", out + "/profile.json", "--out", out});
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--dump and the profile (<out>/profile.json) name the same file"), std::string::npos)
+        << r.err;
     r = runTumble({"run", "pendulum", "--no-render", "--frames", "2", "--snapshot-at", "5", "--out", out});
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("past the run's last frame (2)"), std::string::npos) << r.err;
