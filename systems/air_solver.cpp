@@ -1,5 +1,7 @@
 #include "systems/air_solver.h"
 
+#include "engine/simd.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -11,7 +13,26 @@
 
 #include <emmintrin.h>
 
+// This file is compiled twice: as it is, its loops for SSE2 (namespace air_sse2), and by
+// systems/air_solver_avx2.cpp for AVX2 (air_avx2: eight floats a vector where g++ vectorises a loop).
+// Both do the same operations on every value in the same order (no fused multiply-add: the build has
+// -ffp-contract=off, and AVX2 alone does not enable FMA; sums keep their order), so they give the same
+// bits; the public functions at the end choose by activeSimd() (TUMBLE_SIMD forces either), and
+// tests/air_test.cpp compares the two in one process. The target is set after the includes, so that the
+// headers' inline functions, shared with the rest of the program, stay SSE2.
+#ifdef TUMBLE_AIR_AVX2
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC target("avx2")
+#endif
+#define TUMBLE_AIR_VARIANT air_avx2
+#else
+#define TUMBLE_AIR_VARIANT air_sse2
+#endif
+
 namespace tumble {
+namespace TUMBLE_AIR_VARIANT {
 
 namespace {
 
@@ -21,7 +42,6 @@ constexpr float kJacobiWeight =
 constexpr int kSmoothing = 2;       ///< Jacobi sweeps before and after the coarse correction
 constexpr int kCoarsestSweeps = 30; ///< on the coarsest level (a few cells a side)
 constexpr std::uint32_t kMostIterations = 200;
-constexpr double kAirDensity = 1.2; ///< kg/m^3, for the kinetic energy
 
 /// A grid of n cells padded by one cell of zeros on every side.
 struct Padded {
@@ -1392,13 +1412,6 @@ void confineVorticity(Air& air, double dt, WorkerPool& pool) {
 
 } // namespace
 
-int airViscositySubsteps(const Air& air, double dt) {
-    const double needed = std::ceil(air.viscosity * dt / (air.cell * air.cell) * 6.0);
-    return needed <= 1.0                             ? 1
-           : needed > double(kMostViscositySubsteps) ? kMostViscositySubsteps + 1
-                                                     : int(needed);
-}
-
 namespace {
 
 /// Viscosity, explicit: each velocity component diffused by nu dt Lap on its own lattice (a neighbour past
@@ -1460,6 +1473,24 @@ void initAir(Air& air) {
         s.back.assign(std::max({air.u.size(), air.v.size(), air.w.size()}), 0.0f);
         s.back2.assign(air.heat.size(), 0.0f);
     }
+}
+
+double airDivergenceMax(const Air& air, WorkerPool& pool) {
+    const Padded g(air.cells);
+    const std::vector<float>& in = air.scratch.levels[0].inAir;
+    return sumRows(pool, air.cells[1], air.cells[2], Largest{},
+                   [&](int j, int k) {
+                       Largest m;
+                       for (int i = 0; i < air.cells[0]; ++i) {
+                           // the cells of the pressure problem (not a body's, nor air shut in by bodies)
+                           if (in[g.at(i, j, k)] > 0.0f) {
+                               m.value = std::max(m.value, double(std::abs(outflow(air, i, j, k))));
+                           }
+                       }
+                       return m;
+                   })
+               .value /
+           air.cell;
 }
 
 void projectAir(Air& air, WorkerPool& pool) {
@@ -1560,33 +1591,7 @@ void projectAir(Air& air, WorkerPool& pool) {
     });
     closeSides(air);
     holdFixedFaces(air); // a face of a solid cell keeps its body's (or source's) velocity
-    air.divergenceMax = airDivergenceMax(air, pool);
-}
-
-double airDivergenceMax(const Air& air, WorkerPool& pool) {
-    const Padded g(air.cells);
-    const std::vector<float>& in = air.scratch.levels[0].inAir;
-    return sumRows(pool, air.cells[1], air.cells[2], Largest{},
-                   [&](int j, int k) {
-                       Largest m;
-                       for (int i = 0; i < air.cells[0]; ++i) {
-                           // the cells of the pressure problem (not a body's, nor air shut in by bodies)
-                           if (in[g.at(i, j, k)] > 0.0f) {
-                               m.value = std::max(m.value, double(std::abs(outflow(air, i, j, k))));
-                           }
-                       }
-                       return m;
-                   })
-               .value /
-           air.cell;
-}
-
-bool stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
-    if (!advectAir(air, dt, pool)) {
-        return false;
-    }
-    finishAirStep(air, gravity, dt, pool);
-    return true;
+    air.divergenceMax = TUMBLE_AIR_VARIANT::airDivergenceMax(air, pool);
 }
 
 bool advectAir(Air& air, double dt, WorkerPool& pool) {
@@ -1618,7 +1623,76 @@ void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
     if (air.viscosity > 0.0) {
         diffuseVelocity(air, dt, pool);
     }
-    projectAir(air, pool);
+    TUMBLE_AIR_VARIANT::projectAir(air, pool);
+}
+
+Vec3 airVelocityAt(const Air& air, const Vec3& point) {
+    const Lattices velocity = velocityLattices(air);
+    const Vec3 local = (point - air.origin()) * (1.0 / air.cell);
+    const auto x = float(local.x), y = float(local.y), z = float(local.z);
+    return {velocity.u.at(x, y, z), velocity.v.at(x, y, z), velocity.w.at(x, y, z)};
+}
+
+} // namespace TUMBLE_AIR_VARIANT
+
+#ifndef TUMBLE_AIR_AVX2
+
+namespace air_avx2 { // the functions above, compiled for AVX2 (systems/air_solver_avx2.cpp)
+bool advectAir(Air& air, double dt, WorkerPool& pool);
+void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool);
+void projectAir(Air& air, WorkerPool& pool);
+double airDivergenceMax(const Air& air, WorkerPool& pool);
+} // namespace air_avx2
+
+namespace {
+constexpr double kAirDensity = 1.2; ///< kg/m^3, for the kinetic energy
+
+bool avx2() {
+    return activeSimd() == Simd::Avx2;
+}
+} // namespace
+
+int airViscositySubsteps(const Air& air, double dt) {
+    const double needed = std::ceil(air.viscosity * dt / (air.cell * air.cell) * 6.0);
+    return needed <= 1.0                             ? 1
+           : needed > double(kMostViscositySubsteps) ? kMostViscositySubsteps + 1
+                                                     : int(needed);
+}
+
+void initAir(Air& air) {
+    air_sse2::initAir(air);
+}
+
+bool stepAir(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
+    if (!advectAir(air, dt, pool)) {
+        return false;
+    }
+    finishAirStep(air, gravity, dt, pool);
+    return true;
+}
+
+bool advectAir(Air& air, double dt, WorkerPool& pool) {
+    return avx2() ? air_avx2::advectAir(air, dt, pool) : air_sse2::advectAir(air, dt, pool);
+}
+
+void finishAirStep(Air& air, const Vec3& gravity, double dt, WorkerPool& pool) {
+    if (avx2()) {
+        air_avx2::finishAirStep(air, gravity, dt, pool);
+    } else {
+        air_sse2::finishAirStep(air, gravity, dt, pool);
+    }
+}
+
+void projectAir(Air& air, WorkerPool& pool) {
+    if (avx2()) {
+        air_avx2::projectAir(air, pool);
+    } else {
+        air_sse2::projectAir(air, pool);
+    }
+}
+
+double airDivergenceMax(const Air& air, WorkerPool& pool) {
+    return avx2() ? air_avx2::airDivergenceMax(air, pool) : air_sse2::airDivergenceMax(air, pool);
 }
 
 bool airContains(const Air& air, const Vec3& point) {
@@ -1628,10 +1702,7 @@ bool airContains(const Air& air, const Vec3& point) {
 }
 
 Vec3 airVelocityAt(const Air& air, const Vec3& point) {
-    const Lattices velocity = velocityLattices(air);
-    const Vec3 local = (point - air.origin()) * (1.0 / air.cell);
-    const auto x = float(local.x), y = float(local.y), z = float(local.z);
-    return {velocity.u.at(x, y, z), velocity.v.at(x, y, z), velocity.w.at(x, y, z)};
+    return air_sse2::airVelocityAt(air, point);
 }
 
 double airSmokeTotal(const Air& air) {
@@ -1683,4 +1754,10 @@ double airKineticEnergy(const Air& air) {
     return 0.5 * kAirDensity * sum * air.cell * air.cell * air.cell;
 }
 
+#endif // TUMBLE_AIR_AVX2
+
 } // namespace tumble
+
+#if defined(TUMBLE_AIR_AVX2) && defined(__clang__)
+#pragma clang attribute pop
+#endif
