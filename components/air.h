@@ -33,9 +33,9 @@ struct AirFixedFace {
 struct AirLevel {
     std::array<int, 3> n{};
     float weight = 1.0f; ///< the stencil's weight on this level (2 on the one below the finest, ...)
-    std::vector<float> diagonal, relax, x, b, scratch; ///< relax: Jacobi's weight over the diagonal
-    std::vector<float> inAir;                          ///< per cell: 1 in the pressure problem, 0 solid
-    std::vector<std::uint8_t> solid;                   ///< per cell (unpadded): all its fine cells solid
+    std::vector<float> diagonal, inverse, x, b, scratch; ///< inverse: 1 / diagonal (0 for a solid cell)
+    std::vector<float> inAir;                            ///< per cell: 1 in the pressure problem, 0 solid
+    std::vector<std::uint8_t> solid;                     ///< per cell (unpadded): all its fine cells solid
 };
 
 /// What the projection keeps between steps: its levels and work vectors (padded, as AirLevel).

@@ -18,9 +18,9 @@
 //   4. viscosity, explicit, in as many substeps as nu dt / dx^2 <= 1/6 needs;
 //   5. projection: with q = p dt / rho, the discrete Poisson problem -dx^2 Lap q = -dx^2 div u (closed
 //      sides: no flow through them, Neumann; open sides: q = 0 outside, Dirichlet), solved by conjugate
-//      gradients preconditioned with a multigrid V-cycle (cells merged 2 x 2 x 2, weighted Jacobi
-//      smoothing, symmetric), from last step's q, until every cell's divergence is under `tolerance`; then
-//      u -= grad q.
+//      gradients preconditioned with a multigrid V-cycle (cells merged 2 x 2 x 2, Jacobi smoothing
+//      weighted by a Chebyshev polynomial's roots, symmetric), from last step's q, until every cell's
+//      divergence is under `tolerance`; then u -= grad q.
 // Every loop runs over z-slabs of fixed size on the worker pool and every sum adds per-slab partials in
 // slab order, so any thread count gives the same bits.
 
