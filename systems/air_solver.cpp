@@ -583,30 +583,37 @@ void around(int i, int n, int (&out)[2]) {
     }
 }
 
-/// Four floats, or ints, on an SSE2 register (the advection four points at a time, below).
+/// Four floats, or ints, on an SSE2 register, and eight on an AVX2 one (the advection several points at a
+/// time, below: four in the SSE2 build, eight in the AVX2 one).
 using Float4 = float __attribute__((vector_size(16)));
 using Int4 = std::int32_t __attribute__((vector_size(16)));
+using Float8 = float __attribute__((vector_size(32)));
+using Int8 = std::int32_t __attribute__((vector_size(32)));
+#ifdef TUMBLE_AIR_AVX2
+using Lanes = Float8;
+using IntLanes = Int8;
+#else
+using Lanes = Float4;
+using IntLanes = Int4;
+#endif
+constexpr int kLanes = int(sizeof(Lanes) / sizeof(float));
 
-inline Float4 load4(const float* p) {
-    Float4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
-
-/// One value of a field, or four along x (for the advection four points at a time).
+/// One value of a field, or a vector of them along x (for the advection several points at a time).
 template <class T>
 T loadAs(const float* p) {
     if constexpr (std::is_same_v<T, float>) {
         return *p;
     } else {
-        return load4(p);
+        T v;
+        std::memcpy(&v, p, sizeof v);
+        return v;
     }
 }
 
 /// Lattice c at a point of another lattice whose offsets differ by (DX, DY, DZ) half cells, at that
 /// lattice's index (i, j, k): the mean of the two values either side along each axis where the point is
 /// half way, which is what trilinear sampling there gives, without the search for the corner. With T =
-/// Float4 (and no clamping), at i .. i+3: the lattice's values along a row are contiguous.
+/// Lanes (and no clamping), at i .. i + kLanes - 1: the lattice's values along a row are contiguous.
 template <int DX, int DY, int DZ, bool Clamp, class T = float>
 T aligned(const Lattice& c, int i, int j, int k) {
     int is[2], js[2], ks[2];
@@ -670,71 +677,73 @@ void velocityAtPoint(const Lattices& vel, const Lattice& from, int i, int j, int
     }
 }
 
-// ---- the advection four points at a time: the same operations in the same order as one at a time
+// ---- the advection kLanes points at a time: the same operations in the same order as one at a time
 // (lane by lane, IEEE single precision, no contraction), so the same bits. GCC's vector extensions rather
 // than a library: nothing packaged offers gathers and per-lane selects on plain SSE2.
 
-/// velocityAt<L, false> at (i..i+3, j, k).
+/// velocityAt<L, false> at (i .. i + kLanes - 1, j, k).
 template <int L>
-void velocityAt4(const Lattices& vel, int i, int j, int k, float scale, Float4& x, Float4& y, Float4& z) {
+void velocityAtLanes(const Lattices& vel, int i, int j, int k, float scale, Lanes& x, Lanes& y, Lanes& z) {
     const auto own = [&](const Lattice& l) {
-        return load4(l.f + std::size_t(i) + std::size_t(l.nx) * (std::size_t(j) + std::size_t(l.ny) * k));
+        return loadAs<Lanes>(l.f + std::size_t(i) +
+                             std::size_t(l.nx) * (std::size_t(j) + std::size_t(l.ny) * k));
     };
     if constexpr (L == 0) {
         x = own(vel.u);
-        y = aligned<-1, 1, 0, false, Float4>(vel.v, i, j, k);
-        z = aligned<-1, 0, 1, false, Float4>(vel.w, i, j, k);
+        y = aligned<-1, 1, 0, false, Lanes>(vel.v, i, j, k);
+        z = aligned<-1, 0, 1, false, Lanes>(vel.w, i, j, k);
     } else if constexpr (L == 1) {
-        x = aligned<1, -1, 0, false, Float4>(vel.u, i, j, k);
+        x = aligned<1, -1, 0, false, Lanes>(vel.u, i, j, k);
         y = own(vel.v);
-        z = aligned<0, -1, 1, false, Float4>(vel.w, i, j, k);
+        z = aligned<0, -1, 1, false, Lanes>(vel.w, i, j, k);
     } else if constexpr (L == 2) {
-        x = aligned<1, 0, -1, false, Float4>(vel.u, i, j, k);
-        y = aligned<0, 1, -1, false, Float4>(vel.v, i, j, k);
+        x = aligned<1, 0, -1, false, Lanes>(vel.u, i, j, k);
+        y = aligned<0, 1, -1, false, Lanes>(vel.v, i, j, k);
         z = own(vel.w);
     } else {
-        x = aligned<1, 0, 0, false, Float4>(vel.u, i, j, k);
-        y = aligned<0, 1, 0, false, Float4>(vel.v, i, j, k);
-        z = aligned<0, 0, 1, false, Float4>(vel.w, i, j, k);
+        x = aligned<1, 0, 0, false, Lanes>(vel.u, i, j, k);
+        y = aligned<0, 1, 0, false, Lanes>(vel.v, i, j, k);
+        z = aligned<0, 0, 1, false, Lanes>(vel.w, i, j, k);
     }
     x *= scale;
     y *= scale;
     z *= scale;
 }
 
-/// Lattice::corner for four points: the first corners' indices and the weights.
-struct Corner4 {
-    Int4 base;
-    Float4 tx, ty, tz;
+/// Lattice::corner for kLanes points: the first corners' indices and the weights.
+struct CornerLanes {
+    IntLanes base;
+    Lanes tx, ty, tz;
 };
 
-inline Float4 clamp4(Float4 v, float lo, float hi) {
-    const Float4 low = {lo, lo, lo, lo}, high = {hi, hi, hi, hi};
-    const Float4 r = v < low ? low : v; // std::clamp's comparisons, lane by lane
+inline Lanes clampLanes(Lanes v, float lo, float hi) {
+    const Lanes low = Lanes{} + lo, high = Lanes{} + hi; // every lane lo, hi
+    const Lanes r = v < low ? low : v;                   // std::clamp's comparisons, lane by lane
     return high < r ? high : r;
 }
 
-inline Corner4 corner4(const Lattice& l, Float4 x, Float4 y, Float4 z) {
-    const Float4 fx = clamp4(x - l.ox, 0.0f, float(l.nx - 1));
-    const Float4 fy = clamp4(y - l.oy, 0.0f, float(l.ny - 1));
-    const Float4 fz = clamp4(z - l.oz, 0.0f, float(l.nz - 1));
-    Int4 i = __builtin_convertvector(fx, Int4), j = __builtin_convertvector(fy, Int4),
-         k = __builtin_convertvector(fz, Int4);
+inline CornerLanes cornerLanes(const Lattice& l, Lanes x, Lanes y, Lanes z) {
+    const Lanes fx = clampLanes(x - l.ox, 0.0f, float(l.nx - 1));
+    const Lanes fy = clampLanes(y - l.oy, 0.0f, float(l.ny - 1));
+    const Lanes fz = clampLanes(z - l.oz, 0.0f, float(l.nz - 1));
+    IntLanes i = __builtin_convertvector(fx, IntLanes), j = __builtin_convertvector(fy, IntLanes),
+             k = __builtin_convertvector(fz, IntLanes);
     i = i > l.nx - 2 ? l.nx - 2 : i;
     j = j > l.ny - 2 ? l.ny - 2 : j;
     k = k > l.nz - 2 ? l.nz - 2 : k;
-    return {i + l.nx * (j + l.ny * k), fx - __builtin_convertvector(i, Float4),
-            fy - __builtin_convertvector(j, Float4), fz - __builtin_convertvector(k, Float4)};
+    return {i + l.nx * (j + l.ny * k), fx - __builtin_convertvector(i, Lanes),
+            fy - __builtin_convertvector(j, Lanes), fz - __builtin_convertvector(k, Lanes)};
 }
 
-/// Lattice::at for four points: each lane's eight values gathered (as four pairs along x, each pair one
-/// 8-byte load, the four lanes' pairs transposed into two vectors), then the same interpolations.
-inline Float4 at4(const Lattice& l, const float* field, const Corner4& c) {
-    const std::size_t sy = std::size_t(l.nx), sz = std::size_t(l.nx) * std::size_t(l.ny);
-    const std::size_t pairs[4] = {0, sy, sz, sz + sy};
-    const float* p[4] = {field + std::size_t(c.base[0]), field + std::size_t(c.base[1]),
-                         field + std::size_t(c.base[2]), field + std::size_t(c.base[3])};
-    Float4 v[8];
+/// The eight values of the trilinear samples of lanes first .. first + 3 of c in a field: each lane's values
+/// gathered as four pairs along x (each pair one 8-byte load, the four lanes' pairs transposed into two
+/// vectors), v[2n] the lower of pair n and v[2n + 1] the upper, for pairs at offsets `pairs`.
+inline void gatherFour(const float* field, const CornerLanes& c, int first, const std::size_t (&pairs)[4],
+                       Float4 (&v)[8]) {
+    const float* p[4];
+    for (int lane = 0; lane < 4; ++lane) {
+        p[lane] = field + std::size_t(c.base[first + lane]);
+    }
     for (int n = 0; n < 4; ++n) {
         const auto pairAt = [&](int lane) {
             double two; // the lane's value and the next along x, in one load
@@ -746,10 +755,34 @@ inline Float4 at4(const Lattice& l, const float* field, const Corner4& c) {
         v[2 * n] = Float4(_mm_movelh_ps(ab, cd));                // a0 b0 c0 d0
         v[2 * n + 1] = Float4(_mm_movehl_ps(cd, ab));            // a1 b1 c1 d1
     }
-    const auto lerp = [](Float4 a, Float4 b, Float4 t) { return a + t * (b - a); };
-    const Float4 x00 = lerp(v[0], v[1], c.tx), x10 = lerp(v[2], v[3], c.tx);
-    const Float4 x01 = lerp(v[4], v[5], c.tx), x11 = lerp(v[6], v[7], c.tx);
-    return lerp(lerp(x00, x10, c.ty), lerp(x01, x11, c.ty), c.tz);
+}
+
+/// a + t (b - a), lane by lane (a function, not a lambda: a lambda's conversion to a function pointer is
+/// not compiled for AVX2, and passing eight floats to it would change the calling convention).
+inline Lanes lerpLanes(Lanes a, Lanes b, Lanes t) {
+    return a + t * (b - a);
+}
+
+/// Lattice::at for kLanes points: the values gathered four lanes at a time (gatherFour), then the same
+/// interpolations as one point's, lane by lane.
+inline Lanes atLanes(const Lattice& l, const float* field, const CornerLanes& c) {
+    const std::size_t sy = std::size_t(l.nx), sz = std::size_t(l.nx) * std::size_t(l.ny);
+    const std::size_t pairs[4] = {0, sy, sz, sz + sy};
+    Lanes v[8];
+#ifdef TUMBLE_AIR_AVX2
+    Float4 low[8], high[8]; // lanes 0-3 and 4-7, joined in registers (through memory, a 32-byte load of two
+                            // 16-byte stores waits for them: as slow as four lanes at a time)
+    gatherFour(field, c, 0, pairs, low);
+    gatherFour(field, c, 4, pairs, high);
+    for (int n = 0; n < 8; ++n) {
+        v[n] = __builtin_shufflevector(low[n], high[n], 0, 1, 2, 3, 4, 5, 6, 7);
+    }
+#else
+    gatherFour(field, c, 0, pairs, v);
+#endif
+    const Lanes x00 = lerpLanes(v[0], v[1], c.tx), x10 = lerpLanes(v[2], v[3], c.tx);
+    const Lanes x01 = lerpLanes(v[4], v[5], c.tx), x11 = lerpLanes(v[6], v[7], c.tx);
+    return lerpLanes(lerpLanes(x00, x10, c.ty), lerpLanes(x01, x11, c.ty), c.tz);
 }
 
 /// The stretch of a row of lattice L whose points' velocity averages stay inside the box (velocityAt's
@@ -767,29 +800,32 @@ std::pair<int, int> unclampedSpan(const Lattice& from, int j, int k) {
     }
 }
 
-/// advectLattice's row loop for points i .. i+3 (inside the unclamped span).
+/// advectLattice's row loop for points i .. i + kLanes - 1 (inside the unclamped span).
 template <int L>
-void advectFour(const Lattices& velocity, const Lattice& from, const float* second, float* out, float* out2,
-                float scale, int i, int j, int k) {
-    Float4 vx, vy, vz;
-    velocityAt4<L>(velocity, i, j, k, scale, vx, vy, vz);
-    const float fi = float(i);
-    const Float4 x = Float4{fi, fi + 1.0f, fi + 2.0f, fi + 3.0f} + from.ox - vx;
-    const Float4 y = (float(j) + from.oy) - vy, z = (float(k) + from.oz) - vz;
-    const Corner4 c = corner4(from, x, y, z);
+void advectLanes(const Lattices& velocity, const Lattice& from, const float* second, float* out, float* out2,
+                 float scale, int i, int j, int k) {
+    Lanes vx, vy, vz;
+    velocityAtLanes<L>(velocity, i, j, k, scale, vx, vy, vz);
+    Lanes x;
+    for (int lane = 0; lane < kLanes; ++lane) {
+        x[lane] = float(i) + float(lane); // exact: the points' own x, as float(i + lane)
+    }
+    x = x + from.ox - vx;
+    const Lanes y = (float(j) + from.oy) - vy, z = (float(k) + from.oz) - vz;
+    const CornerLanes c = cornerLanes(from, x, y, z);
     const std::size_t at =
         std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k) + std::size_t(i);
-    const Float4 a = at4(from, from.f, c);
+    const Lanes a = atLanes(from, from.f, c);
     std::memcpy(out + at, &a, sizeof a);
     if (second != nullptr) {
-        const Float4 b = at4(from, second, c);
+        const Lanes b = atLanes(from, second, c);
         std::memcpy(out2 + at, &b, sizeof b);
     }
 }
 
 /// Every point of lattice L (whose shape `from` has) takes `from`'s fields (one, or two sharing the
 /// weights: smoke and heat) at the point the flow brought there over the step: the point followed back
-/// along the velocity there (`scale` = dt / dx, in cells). Four at a time where the velocity's averages
+/// along the velocity there (`scale` = dt / dx, in cells). kLanes at a time where the velocity's averages
 /// need no clamping, one at a time elsewhere.
 template <int L>
 void advectLattice(const Lattices& velocity, const Lattice& from, const float* second, float* out,
@@ -798,13 +834,13 @@ void advectLattice(const Lattices& velocity, const Lattice& from, const float* s
         const std::size_t row = std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k);
         const float y = float(j) + from.oy, z = float(k) + from.oz;
         const auto [begin, end] = unclampedSpan<L>(from, j, k);
-        int fourEnd = begin;
-        for (; fourEnd + 4 <= end; fourEnd += 4) {
-            advectFour<L>(velocity, from, second, out, out2, scale, fourEnd, j, k);
+        int lanesEnd = begin;
+        for (; lanesEnd + kLanes <= end; lanesEnd += kLanes) {
+            advectLanes<L>(velocity, from, second, out, out2, scale, lanesEnd, j, k);
         }
         for (int i = 0; i < from.nx; ++i) {
-            if (i == begin && fourEnd > begin) {
-                i = fourEnd - 1;
+            if (i == begin && lanesEnd > begin) {
+                i = lanesEnd - 1;
                 continue;
             }
             float vx, vy, vz;
