@@ -11,7 +11,7 @@
 #include <limits>
 #include <type_traits>
 
-#include <emmintrin.h>
+#include <immintrin.h>
 
 // This file is compiled twice: as it is, its loops for SSE2 (namespace air_sse2), and by
 // systems/air_solver_avx2.cpp for AVX2 (air_avx2: eight floats a vector where g++ vectorises a loop).
@@ -1320,17 +1320,17 @@ struct Span {
     }
 };
 
-/// Calls cell(i, x) for the cells of a row of nx, x its Span, and four(i, scale) for four inner cells at a
-/// time (for each, x.lo = i - 1 and x.hi = i + 1, the same scale), which must give the bits of cell() on
+/// Calls cell(i, x) for the cells of a row of nx, x its Span, and lanes(i, scale) for kLanes inner cells at
+/// a time (for each, x.lo = i - 1 and x.hi = i + 1, the same scale), which must give the bits of cell() on
 /// each.
-template <class Cell, class Four>
-void alongRow(int nx, float inv, Cell&& cell, Four&& four) {
+template <class Cell, class Several>
+void alongRow(int nx, float inv, Cell&& cell, Several&& lanes) {
     const int inner = std::max(nx - 1, 1);
     cell(0, Span::at(0, nx, inv));
     const Span middle = Span::at(1, nx, inv);
     int i = 1;
-    for (; i + 4 <= inner; i += 4) {
-        four(i, _mm_set1_ps(middle.scale));
+    for (; i + kLanes <= inner; i += kLanes) {
+        lanes(i, Lanes{} + middle.scale);
     }
     for (; i < inner; ++i) {
         cell(i, Span{i - 1, i + 1, middle.scale});
@@ -1340,17 +1340,19 @@ void alongRow(int nx, float inv, Cell&& cell, Four&& four) {
     }
 }
 
-inline __m128 ld(const float* p) {
-    return _mm_loadu_ps(p);
+inline Lanes ld(const float* p) {
+    return loadAs<Lanes>(p);
 }
-inline __m128 sub(__m128 a, __m128 b) {
-    return _mm_sub_ps(a, b);
+inline void st(float* p, Lanes v) {
+    std::memcpy(p, &v, sizeof v);
 }
-inline __m128 mul(__m128 a, __m128 b) {
-    return _mm_mul_ps(a, b);
-}
-inline __m128 add(__m128 a, __m128 b) {
-    return _mm_add_ps(a, b);
+/// The square root of every lane (IEEE: exact to the last bit, as std::sqrt).
+inline Lanes sqrtLanes(Lanes v) {
+#ifdef TUMBLE_AIR_AVX2
+    return Lanes(_mm256_sqrt_ps(__m256(v)));
+#else
+    return Lanes(_mm_sqrt_ps(__m128(v)));
+#endif
 }
 
 /// omega = curl of the cell velocities, and |omega|.
@@ -1381,19 +1383,19 @@ void curlOf(const Air& air, const Planes& cv, const Planes& curl, float* length,
                 wzs[i] = wz;
                 len[i] = std::sqrt(wx * wx + wy * wy + wz * wz);
             },
-            [&](int i, __m128 xs) {
+            [&](int i, Lanes xs) {
                 const std::size_t m = std::size_t(i);
-                const __m128 ys = _mm_set1_ps(y.scale), zs = _mm_set1_ps(z.scale);
-                const __m128 wx = sub(mul(sub(ld(vz + yp + m), ld(vz + ym + m)), ys),
-                                      mul(sub(ld(vy + zp + m), ld(vy + zm + m)), zs));
-                const __m128 wy = sub(mul(sub(ld(vx + zp + m), ld(vx + zm + m)), zs),
-                                      mul(sub(ld(vz + c0 + m + 1), ld(vz + c0 + m - 1)), xs));
-                const __m128 wz = sub(mul(sub(ld(vy + c0 + m + 1), ld(vy + c0 + m - 1)), xs),
-                                      mul(sub(ld(vx + yp + m), ld(vx + ym + m)), ys));
-                _mm_storeu_ps(wxs + i, wx);
-                _mm_storeu_ps(wys + i, wy);
-                _mm_storeu_ps(wzs + i, wz);
-                _mm_storeu_ps(len + i, _mm_sqrt_ps(add(add(mul(wx, wx), mul(wy, wy)), mul(wz, wz))));
+                const Lanes ys = Lanes{} + y.scale, zs = Lanes{} + z.scale;
+                const Lanes wx =
+                    (ld(vz + yp + m) - ld(vz + ym + m)) * ys - (ld(vy + zp + m) - ld(vy + zm + m)) * zs;
+                const Lanes wy = (ld(vx + zp + m) - ld(vx + zm + m)) * zs -
+                                 (ld(vz + c0 + m + 1) - ld(vz + c0 + m - 1)) * xs;
+                const Lanes wz = (ld(vy + c0 + m + 1) - ld(vy + c0 + m - 1)) * xs -
+                                 (ld(vx + yp + m) - ld(vx + ym + m)) * ys;
+                st(wxs + i, wx);
+                st(wys + i, wy);
+                st(wzs + i, wz);
+                st(len + i, sqrtLanes(wx * wx + wy * wy + wz * wz));
             });
     });
 }
@@ -1427,17 +1429,17 @@ void confinementForce(const Air& air, const Planes& curl, const float* length, c
                 fy[i] = nzv * w0[i] - nxv * w2[i];
                 fz[i] = nxv * w1[i] - nyv * w0[i];
             },
-            [&](int i, __m128 xs) {
-                const __m128 gx = mul(sub(ld(here + i + 1), ld(here + i - 1)), xs);
-                const __m128 gy = mul(sub(ld(yp + i), ld(ym + i)), _mm_set1_ps(y.scale));
-                const __m128 gz = mul(sub(ld(zp + i), ld(zm + i)), _mm_set1_ps(z.scale));
-                const __m128 size = _mm_sqrt_ps(add(add(mul(gx, gx), mul(gy, gy)), mul(gz, gz)));
-                const __m128 scale = _mm_div_ps(_mm_set1_ps(strength), add(size, _mm_set1_ps(1e-20f)));
-                const __m128 nxv = mul(gx, scale), nyv = mul(gy, scale), nzv = mul(gz, scale);
-                const __m128 a = ld(w0 + i), b = ld(w1 + i), c = ld(w2 + i);
-                _mm_storeu_ps(fx + i, sub(mul(nyv, c), mul(nzv, b)));
-                _mm_storeu_ps(fy + i, sub(mul(nzv, a), mul(nxv, c)));
-                _mm_storeu_ps(fz + i, sub(mul(nxv, b), mul(nyv, a)));
+            [&](int i, Lanes xs) {
+                const Lanes gx = (ld(here + i + 1) - ld(here + i - 1)) * xs;
+                const Lanes gy = (ld(yp + i) - ld(ym + i)) * y.scale;
+                const Lanes gz = (ld(zp + i) - ld(zm + i)) * z.scale;
+                const Lanes size = sqrtLanes(gx * gx + gy * gy + gz * gz);
+                const Lanes scale = strength / (size + 1e-20f);
+                const Lanes nxv = gx * scale, nyv = gy * scale, nzv = gz * scale;
+                const Lanes a = ld(w0 + i), b = ld(w1 + i), c = ld(w2 + i);
+                st(fx + i, nyv * c - nzv * b);
+                st(fy + i, nzv * a - nxv * c);
+                st(fz + i, nxv * b - nyv * a);
             });
     });
 }
@@ -1473,7 +1475,7 @@ void addFaceMeans(Air& air, const Planes& force, float h, WorkerPool& pool) {
 /// force eps dx (N x omega), which spins up the small eddies the grid's interpolation smooths away; each
 /// face inside the box takes the mean of its two cells' forces.
 void confineVorticity(Air& air, double dt, WorkerPool& pool) {
-    // Scratch in planes (x components, then y, then z), not cell after cell, and four inner cells of a row
+    // Scratch in planes (x components, then y, then z), not cell after cell, and kLanes inner cells of a row
     // at a time: g++ left the interleaved loops scalar (13% of a 64^3 step). Every value is computed by the
     // same operations as cell by cell, so the bits do not depend on either.
     AirScratch& s = air.scratch;
