@@ -39,8 +39,15 @@ namespace {
 constexpr std::size_t kSlabs = 2; ///< z-slabs a chunk of work (fixed: the same bits at any thread count)
 constexpr float kJacobiWeight =
     6.0f / 7.0f;                    ///< weighted Jacobi's best smoothing weight for the 3D 7-point stencil
-constexpr int kSmoothing = 2;       ///< Jacobi sweeps before and after the coarse correction
+constexpr int kSmoothing = 2;       ///< Jacobi sweeps before and after the coarse correction, finest level
+constexpr int kCoarseSmoothing = 3; ///< the same on the coarser levels (but the coarsest)
 constexpr int kCoarsestSweeps = 30; ///< on the coarsest level (a few cells a side), at kJacobiWeight
+/// Each coarser level's stencil weighs this much more than the one above: 2 is the stencil rediscretised on
+/// cells twice as wide, in the fine one's units (the restriction sums eight cells); the coarse correction a
+/// tenth stronger took fewer CG iterations in each of five scenes (a 64^3 plume 3.6 -> 3.0 a step, a 32^3
+/// one 2.5 -> 2.0, a fan's jet round a block 2.65 -> 2.6, a closed box's 1.8 the same; a random field from
+/// scratch 18 -> 18 over three boxes), 2.1 and 2.3 fewer than 2 but more than 2.2, 2.6 and 3 more than 2.
+constexpr float kCoarseWeightGrowth = 2.2f;
 constexpr std::uint32_t kMostIterations = 200;
 
 /// A grid of n cells padded by one cell of zeros on every side.
@@ -146,24 +153,33 @@ void residualLevel(const AirLevel& level, const float* x, const float* b, float*
                [&](std::size_t p, float around) { out[p] = b[p] - in[p] * (d[p] * x[p] - weight * around); });
 }
 
-/// The weights of the smoother's kSmoothing Jacobi sweeps, a Chebyshev polynomial's (the sweeps' error
-/// factor, the product of (1 - w_k lambda) over the eigenvalues lambda of D^-1 A, is 1 / T_m((b + a) / (b -
-/// a)) at most on [a, b]; Saad, "Iterative methods for sparse linear systems", 12.3): w_k = 1 / lambda_k at
-/// the roots lambda_k = (b + a) / 2 + (b - a) / 2 cos(pi (2k - 1) / 2m), for m = 2 the centre plus and
-/// minus the half-width over sqrt(2) (sqrt is exact to the last bit everywhere; cos from the C library
-/// need not be). D^-1 A's eigenvalues lie in [0, 2] (Gershgorin: a row's neighbours weigh no more than its
-/// diagonal), and those of the modes a grid of cells twice as wide cannot hold (a wave number past half
-/// the largest along some axis) in [1/3, 2]: so a = 1/3, b = 2, and two sweeps leave at most 0.34 of such
-/// a mode, against 0.51 for two at kJacobiWeight (whose factor is 5/7 a sweep). Between 0 and a the factor
-/// stays in (0, 1), so the V-cycle stays positive definite. On the 64^3 benchmark's plume CG took 2.8
-/// iterations a step instead of 4.4, each at the same cost (a from 0.25 to 0.5: 2.8-3.5; three sweeps 2.5,
-/// for two passes more).
-const std::array<float, kSmoothing>& smoothingWeights() {
-    static_assert(kSmoothing == 2, "the roots below are those of the second Chebyshev polynomial");
-    static const std::array<float, kSmoothing> weights = [] {
+/// The smoother's weights: its Jacobi sweeps weighted by the roots of a Chebyshev polynomial (the sweeps'
+/// error factor, the product of (1 - w_k lambda) over the eigenvalues lambda of D^-1 A, is 1 / T_m((b + a) /
+/// (b - a)) at most on [a, b]; Saad, "Iterative methods for sparse linear systems", 12.3): w_k = 1 /
+/// lambda_k at the roots lambda_k = (b + a) / 2 + (b - a) / 2 cos(pi (2k - 1) / 2m), m sweeps. D^-1 A's
+/// eigenvalues lie in [0, 2] (Gershgorin: a row's neighbours weigh no more than its diagonal), and those of
+/// the modes a grid of cells twice as wide cannot hold (a wave number past half the largest along some
+/// axis) in [1/3, 2]: so a = 1/3, b = 2. Two sweeps leave at most 0.34 of such a mode, three 0.15, against
+/// 0.51 and 0.36 at kJacobiWeight (whose factor is 5/7 a sweep); between 0 and a the factor stays in (0, 1),
+/// so the V-cycle stays positive definite. The finest level sweeps twice, the coarser ones (an eighth of
+/// the cells each) three times. The roots need only square roots (cos(pi/4) = sqrt(1/2), cos(pi/6) =
+/// sqrt(3)/2), which are exact to the last bit everywhere; cos from the C library need not be.
+struct SmoothingWeights {
+    std::array<float, kSmoothing> fine;
+    std::array<float, kCoarseSmoothing> coarse;
+    std::array<float, kCoarsestSweeps> coarsest; ///< plain weighted Jacobi, kJacobiWeight each
+};
+
+const SmoothingWeights& smoothingWeights() {
+    static_assert(kSmoothing == 2 && kCoarseSmoothing == 3, "the roots below are those of T_2 and T_3");
+    static const SmoothingWeights weights = [] {
         const double a = 1.0 / 3.0, b = 2.0, centre = (b + a) / 2.0, half = (b - a) / 2.0;
-        const double offset = half * std::sqrt(0.5);
-        return std::array<float, kSmoothing>{float(1.0 / (centre + offset)), float(1.0 / (centre - offset))};
+        const double two = half * std::sqrt(0.5), three = half * std::sqrt(3.0) / 2.0;
+        SmoothingWeights w{};
+        w.fine = {float(1.0 / (centre + two)), float(1.0 / (centre - two))};
+        w.coarse = {float(1.0 / (centre + three)), float(1.0 / centre), float(1.0 / (centre - three))};
+        w.coarsest.fill(kJacobiWeight);
+        return w;
     }();
     return weights;
 }
@@ -180,10 +196,10 @@ void jacobi(const AirLevel& level, const float* x, const float* b, float* out, f
     });
 }
 
-/// Jacobi sweeps from zero on a level, for right-hand side b, one for each weight in turn; the result in
-/// level.x.
-template <std::size_t N>
-void smoothFromZero(AirLevel& level, const float* b, const std::array<float, N>& omegas, WorkerPool& pool) {
+/// Jacobi sweeps from zero on a level, for right-hand side b, one for each of the `sweeps` weights in turn;
+/// the result in level.x.
+void smoothFromZero(AirLevel& level, const float* b, const float* omegas, std::size_t sweeps,
+                    WorkerPool& pool) {
     const Padded g(level.n);
     const float first = omegas[0];
     forRows(pool, g.ny, g.nz, [&](int j, int k) {
@@ -193,7 +209,7 @@ void smoothFromZero(AirLevel& level, const float* b, const std::array<float, N>&
                 (first * level.inverse[row + std::size_t(i)]) * b[row + std::size_t(i)];
         }
     });
-    for (std::size_t s = 1; s < N; ++s) {
+    for (std::size_t s = 1; s < sweeps; ++s) {
         jacobi(level, level.x.data(), b, level.scratch.data(), omegas[s], pool);
         level.x.swap(level.scratch);
     }
@@ -205,14 +221,14 @@ void smoothFromZero(AirLevel& level, const float* b, const std::array<float, N>&
 /// cycle is symmetric, as CG needs).
 void vcycle(std::vector<AirLevel>& levels, std::size_t l, const float* b, WorkerPool& pool) {
     AirLevel& level = levels[l];
+    const SmoothingWeights& weights = smoothingWeights();
     if (l + 1 == levels.size()) {
-        std::array<float, kCoarsestSweeps> plain{};
-        plain.fill(kJacobiWeight);
-        smoothFromZero(level, b, plain, pool);
+        smoothFromZero(level, b, weights.coarsest.data(), weights.coarsest.size(), pool);
         return;
     }
-    const std::array<float, kSmoothing>& omegas = smoothingWeights();
-    smoothFromZero(level, b, omegas, pool);
+    const float* omegas = l == 0 ? weights.fine.data() : weights.coarse.data();
+    const std::size_t sweeps = l == 0 ? weights.fine.size() : weights.coarse.size();
+    smoothFromZero(level, b, omegas, sweeps, pool);
     const Padded g(level.n);
     AirLevel& coarse = levels[l + 1];
     const Padded c(coarse.n);
@@ -234,7 +250,7 @@ void vcycle(std::vector<AirLevel>& levels, std::size_t l, const float* b, Worker
             level.x[row + std::size_t(i)] += in[i] * from[i / 2];
         }
     });
-    for (std::size_t s = kSmoothing; s-- > 0;) {
+    for (std::size_t s = sweeps; s-- > 0;) {
         jacobi(level, level.x.data(), b, level.scratch.data(), omegas[s], pool);
         level.x.swap(level.scratch);
     }
@@ -264,7 +280,7 @@ void buildLevels(Air& air) {
             break;
         }
         n = {(n[0] + 1) / 2, (n[1] + 1) / 2, (n[2] + 1) / 2};
-        weight *= 2.0f; // the coarse stencil as rediscretised on cells twice as wide, in the fine one's units
+        weight *= kCoarseWeightGrowth;
     }
 }
 
