@@ -866,6 +866,13 @@ void advectLattice(const Lattices& velocity, const Lattice& from, const float* s
         for (; lanesEnd + kLanes <= end; lanesEnd += kLanes) {
             advectLanes<L>(velocity, from, second, out, out2, scale, lanesEnd, j, k);
         }
+        if (lanesEnd < end && end - begin >= kLanes) {
+            // the last points of the span in one more block, overlapping the one before: a point computed
+            // twice gets the same bits both times (and reads only `from`), and a block costs what a couple
+            // of points one at a time do
+            advectLanes<L>(velocity, from, second, out, out2, scale, end - kLanes, j, k);
+            lanesEnd = end;
+        }
         for (int i = 0; i < from.nx; ++i) {
             if (i == begin && lanesEnd > begin) {
                 i = lanesEnd - 1;
