@@ -82,9 +82,11 @@ struct Air {
     int velocitySlice = -1; ///< the axis across the drawn slice of velocity arrows (0 x, 1 y, 2 z); -1 none
 
     // the fields, x fastest, then y, then z
-    std::vector<float> u, v, w;     ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
-    std::vector<float> smoke, heat; ///< density (1 = thick), degrees above ambient; nx ny nz each
-    std::vector<float> pressure;    ///< the last projection's (scaled: p dt / rho), the next one's guess
+    std::vector<float> u, v, w;         ///< m/s, on the faces: (nx + 1) ny nz, nx (ny + 1) nz, nx ny (nz + 1)
+    std::vector<float> smoke, heat;     ///< density (1 = thick), degrees above ambient; nx ny nz each
+    std::vector<float> pressure;        ///< the last projection's (scaled: p dt / rho), the next one's guess
+    std::vector<float> earlierPressure; ///< the projection's before it (for the guess; padded as pressure)
+    std::uint32_t projections = 0; ///< projections since the grid was made (2 or more: both are solutions)
     /// per cell: kBodyCell inside a rigid body (voxelised each step), which the air flows round,
     /// kSourceCell in a driving source (systems/air_system.h), 0 air; empty: none
     std::vector<std::uint8_t> solid;

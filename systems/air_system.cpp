@@ -20,9 +20,9 @@ namespace {
 
 constexpr double kMaxCellsPerSide = 1024.0;
 /// Bytes a cell holds: the fields and the advection's copies (10 floats), the projection's padded vectors
-/// and its levels (about 11 floats), the vorticity's scratch (7 floats), the voxeliser's (an int); measured
-/// 118 at 64^3 without bodies (BM_Air64Step), 4 more with them.
-constexpr std::uint64_t kBytesPerCell = 124;
+/// and its levels (about 12 floats, the pressure before last among them), the vorticity's scratch (7
+/// floats), the voxeliser's (an int); measured 122 at 64^3 without bodies (BM_Air64Step), 4 more with them.
+constexpr std::uint64_t kBytesPerCell = 128;
 /// MacCormack's step back: two floats a cell more.
 constexpr std::uint64_t kMacCormackBytesPerCell = 8;
 
@@ -193,6 +193,7 @@ void hashAir(const Air& a, Hasher& h) {
     h.add(a.smoke);
     h.add(a.heat);
     h.add(a.pressure);
+    h.add(a.earlierPressure);
 }
 
 /// The cells a source at `at` may reach, a cell more each way: [lo, hi) along each axis, within the box.
