@@ -502,18 +502,27 @@ struct LargestAbs {
     }
 };
 
-double largestCell(const Air& air, const std::vector<float>& a, WorkerPool& pool) {
-    const Padded g(air.cells);
+/// out = b - A x on the finest level (residualLevel's arithmetic) and the largest |out| of a cell, in one
+/// pass (the row's largest taken while it is in the cache).
+double residualAndLargest(const AirLevel& level, const float* x, const float* b, float* out,
+                          WorkerPool& pool) {
+    const Padded g(level.n);
+    const float weight = level.weight;
+    const float *d = level.diagonal.data(), *in = level.inAir.data();
     return sumRows(pool, g.ny, g.nz, Largest{},
-                   [&](int j, int k) {
+                   [=](int j, int k) {
+                       const std::size_t row = g.at(0, j, k);
+                       for (int i = 0; i < g.nx; ++i) {
+                           const std::size_t c = row + std::size_t(i);
+                           out[c] = b[c] - in[c] * (d[c] * x[c] - weight * neighbourSum(x + c, g));
+                       }
                        LargestAbs m;
-                       const float* row = a.data() + g.at(0, j, k);
                        int i = 0;
                        for (; i + 4 <= g.nx; i += 4) {
-                           m.add(_mm_loadu_ps(row + i));
+                           m.add(_mm_loadu_ps(out + row + std::size_t(i)));
                        }
                        for (; i < g.nx; ++i) {
-                           m.add(row[i]);
+                           m.add(out[row + std::size_t(i)]);
                        }
                        return Largest{m.value()};
                    })
@@ -1614,30 +1623,19 @@ double airDivergenceMax(const Air& air, WorkerPool& pool) {
            air.cell;
 }
 
-/// The projection's first guess: the pressure carried on in time from the last two projections, 2 q_n - q_n-1
-/// (the last one alone until there are two; a solid cell's zero), the last kept for the next guess. On a
-/// smoothly changing flow it starts CG nearer the solution than the last pressure: CG iterations a step
-/// in five scenes 3.0 -> 2.3 (a 64^3 plume), 2.0 -> 1.5 (a 32^3 one), 1.8 -> 1.0 (a closed box's), 2.6 ->
-/// 1.8 (a fan's jet round a block); where the flow changes at once it may start further off, which costs
-/// iterations, never accuracy (CG runs to the tolerance from any guess).
-void guessPressure(Air& air, WorkerPool& pool) {
-    if (air.projections < 2) {
-        air.earlierPressure = air.pressure;
-        ++air.projections;
-        return;
+/// The projection's first guess for a row of cells: the pressure carried on in time from the last two
+/// projections, 2 q_n - q_n-1 (a solid cell's zero), the last kept in `before` for the next guess (the
+/// last one alone is the guess until there are two). On a smoothly changing flow it starts CG nearer the
+/// solution than the last pressure: CG iterations a step in four scenes 3.0 -> 2.3 (a 64^3 plume), 2.0 ->
+/// 1.5 (a 32^3 one), 1.8 -> 1.0 (a closed box's), 2.6 -> 1.8 (a fan's jet round a block); where the flow
+/// changes at once it may start further off, which costs iterations, never accuracy (CG runs to the
+/// tolerance from any guess).
+inline void guessRow(const float* inverse, float* now, float* before, int n) {
+    for (int i = 0; i < n; ++i) {
+        const float last = now[i];
+        now[i] = inverse[i] > 0.0f ? 2.0f * last - before[i] : 0.0f;
+        before[i] = last;
     }
-    const Padded g(air.cells);
-    const float* inverse = air.scratch.levels[0].inverse.data();
-    float *now = air.pressure.data(), *before = air.earlierPressure.data();
-    forRows(pool, g.ny, g.nz, [=](int j, int k) {
-        const std::size_t row = g.at(0, j, k);
-        for (int i = 0; i < g.nx; ++i) {
-            const std::size_t c = row + std::size_t(i);
-            const float last = now[c];
-            now[c] = inverse[c] > 0.0f ? 2.0f * last - before[c] : 0.0f;
-            before[c] = last;
-        }
-    });
 }
 
 void projectAir(Air& air, WorkerPool& pool) {
@@ -1657,7 +1655,13 @@ void projectAir(Air& air, WorkerPool& pool) {
     closeSides(air);
     holdFixedFaces(air);
     const auto dx = float(air.cell);
-    // b = -dx^2 div u = -dx (outflow) in the air's cells; r = b - A q from last step's q
+    // b = -dx^2 div u = -dx (outflow) in the air's cells, and the first guess q (guessPressure), in one
+    // pass; r = b - A q
+    const bool guessed = air.projections >= 2;
+    if (!guessed) {
+        air.earlierPressure = air.pressure;
+        ++air.projections;
+    }
     forRows(pool, g.ny, g.nz, [&](int j, int k) {
         const std::size_t row = g.at(0, j, k);
         const RowFaces faces(air, j, k);
@@ -1666,23 +1670,24 @@ void projectAir(Air& air, WorkerPool& pool) {
         for (int i = 0; i < g.nx; ++i) {
             b[i] = inverse[i] > 0.0f ? -dx * faces.outflow(i) : 0.0f;
         }
+        if (guessed) {
+            guessRow(inverse, air.pressure.data() + row, air.earlierPressure.data() + row, g.nx);
+        }
     });
     const bool singular = allClosed(air);
     if (singular) {
         removeMean(air, fine.b, pool);
     }
-    guessPressure(air, pool);
-    residualLevel(fine, air.pressure.data(), fine.b.data(), s.r.data(), pool);
     // a cell's divergence is its residual over dx^2
     const double enough = air.tolerance * double(dx) * double(dx);
     std::uint32_t it = 0;
-    if (largestCell(air, s.r, pool) > enough) {
+    if (residualAndLargest(fine, air.pressure.data(), fine.b.data(), s.r.data(), pool) > enough) {
         vcycle(s.levels, 0, s.r.data(), pool);
         if (singular) {
             removeMean(air, fine.x, pool);
         }
-        s.p = fine.x;
-        double rz = dotCells(air, s.r, fine.x, pool);
+        s.p.swap(fine.x); // p = z (the V-cycle writes every cell of its x again; the padding stays zero)
+        double rz = dotCells(air, s.r, s.p, pool);
         for (; it < kMostIterations; ++it) {
             applyLevel(fine, s.p.data(), s.q.data(), pool);
             const double pq = dotCells(air, s.p, s.q, pool);
