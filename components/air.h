@@ -32,7 +32,7 @@ struct AirFixedFace {
 /// cell's diagonal (weight times its neighbours in the box plus its open sides).
 struct AirLevel {
     std::array<int, 3> n{};
-    float weight = 1.0f; ///< the stencil's weight on this level (2 on the one below the finest, ...)
+    float weight = 1.0f; ///< the stencil's weight on this level (2.2 on the one below the finest, 2.2^2, ...)
     std::vector<float> diagonal, inverse, x, b, scratch; ///< inverse: 1 / diagonal (0 for a solid cell)
     std::vector<float> inAir;                            ///< per cell: 1 in the pressure problem, 0 solid
     std::vector<std::uint8_t> solid;                     ///< per cell (unpadded): all its fine cells solid
@@ -50,6 +50,7 @@ struct AirScratch {
     /// with driving sources: the cells as marked before any was let go, the sources' velocities then, the
     /// marks let go (systems/air_system.cpp, releaseUnbalanced), and the air's regions (empty without)
     std::vector<std::int32_t> marked, released, region;
+    std::vector<std::uint32_t> freed; ///< the projection's: cells a body let go this step (padded indices)
     std::vector<double> markedVelocities;
     std::vector<std::array<std::int32_t, 4>> regionStack; ///< the flood fill's: a cell and its i, j, k
 };
@@ -86,7 +87,9 @@ struct Air {
     std::vector<float> smoke, heat;     ///< density (1 = thick), degrees above ambient; nx ny nz each
     std::vector<float> pressure;        ///< the last projection's (scaled: p dt / rho), the next one's guess
     std::vector<float> earlierPressure; ///< the projection's before it (for the guess; padded as pressure)
-    std::uint32_t projections = 0; ///< projections since the grid was made (2 or more: both are solutions)
+    /// projections since the grid was made, counted to 2 (2: both pressures are solutions and the guess
+    /// carries them on); 1 again after a projection that did not converge
+    std::uint32_t projections = 0;
     /// per cell: kBodyCell inside a rigid body (voxelised each step), which the air flows round,
     /// kSourceCell in a driving source (systems/air_system.h), 0 air; empty: none
     std::vector<std::uint8_t> solid;

@@ -19,8 +19,8 @@
 //   5. projection: with q = p dt / rho, the discrete Poisson problem -dx^2 Lap q = -dx^2 div u (closed
 //      sides: no flow through them, Neumann; open sides: q = 0 outside, Dirichlet), solved by conjugate
 //      gradients preconditioned with a multigrid V-cycle (cells merged 2 x 2 x 2, Jacobi smoothing
-//      weighted by a Chebyshev polynomial's roots, symmetric), from last step's q, until every cell's
-//      divergence is under `tolerance`; then u -= grad q.
+//      weighted by a Chebyshev polynomial's roots, symmetric), from the guess 2 q_n - q_n-1 carried on
+//      from the last two steps, until every cell's divergence is under `tolerance`; then u -= grad q.
 // Every loop runs over z-slabs of fixed size on the worker pool and every sum adds per-slab partials in
 // slab order, so any thread count gives the same bits.
 

@@ -19,12 +19,18 @@ namespace tumble {
 namespace {
 
 constexpr double kMaxCellsPerSide = 1024.0;
-/// Bytes a cell holds: the fields and the advection's copies (10 floats), the projection's padded vectors
-/// and its levels (about 12 floats, the pressure before last among them), the vorticity's scratch (7
-/// floats), the voxeliser's (an int); measured 122 at 64^3 without bodies (BM_Air64Step), 4 more with them.
-constexpr std::uint64_t kBytesPerCell = 128;
-/// MacCormack's step back: two floats a cell more.
-constexpr std::uint64_t kMacCormackBytesPerCell = 8;
+/// What a grid holds, at most, charged to the memory cap before its bodies and sources are known: per cell,
+/// the fields and the advection's copies (10 floats, a face array up to 1.25 floats a cell on a side of 4),
+/// the vorticity's scratch (7 floats), the solid flags (2 bytes), the voxeliser's (5) and the driving
+/// sources' regions (12): 94 bytes; per cell of the grid padded by one cell a side, the projection's
+/// vectors (5 floats, the pressure before last among them) and its finest level's (6), and its coarser
+/// levels' (6 floats on at most 0.35 as many padded cells): 53 bytes. At 64^3, 152 bytes a cell charged
+/// against 122 measured without bodies (BM_Air64Step) and about 136 with bodies and driving sources; on
+/// thin boxes the padding is most of it (1024 x 1024 x 4: 174 charged, about 143 held).
+constexpr std::uint64_t kBytesPerCell = 94;
+constexpr std::uint64_t kBytesPerPaddedCell = 53;
+/// MacCormack's step back: two face arrays' floats a cell more.
+constexpr std::uint64_t kMacCormackBytesPerCell = 10;
 
 constexpr std::array<std::string_view, 6> kSides{"-x", "+x", "-y", "+y", "-z", "+z"};
 
@@ -104,7 +110,11 @@ void loadAir(TableReader& r, World& world, Entity entity, const SceneDef& scene)
     const std::string slice = r.choice("velocity_slice", "none", {"none", "x", "y", "z"});
     air.velocitySlice = slice == "none" ? -1 : slice[0] - 'x';
     const std::uint64_t n = std::uint64_t(air.cellCount());
-    r.charge("cells", n * (kBytesPerCell + (air.maccormack ? kMacCormackBytesPerCell : 0)),
+    const std::uint64_t padded =
+        std::uint64_t(air.cells[0] + 2) * std::uint64_t(air.cells[1] + 2) * std::uint64_t(air.cells[2] + 2);
+    r.charge("cells",
+             n * (kBytesPerCell + (air.maccormack ? kMacCormackBytesPerCell : 0)) +
+                 padded * kBytesPerPaddedCell,
              r.where() + " (" + std::to_string(n) + " cells)");
     air.centre = world.get<Transform>(entity).position;
     initAir(air);

@@ -593,7 +593,7 @@ std::vector<BadCase> cases() {
                   "size = [1.0, 1.0, 1.0]\n",
          {},
          6,
-         "entity 'room' [air] (1000000000 cells) needs about 119.2 GiB"},
+         "entity 'room' [air] (1000000000 cells) needs about 137.2 GiB"},
         // step, every vertex facing hundreds of triangles within the thickness
         {"self_collision_thicker_than_spacing",
          kScene +
