@@ -204,6 +204,7 @@ void hashAir(const Air& a, Hasher& h) {
     h.add(a.heat);
     h.add(a.pressure);
     h.add(a.earlierPressure);
+    h.add(a.projections); // whether the next guess carries the two pressures on
 }
 
 /// The cells a source at `at` may reach, a cell more each way: [lo, hi) along each axis, within the box.
