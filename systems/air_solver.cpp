@@ -749,8 +749,9 @@ void velocityAtPoint(const Lattices& vel, const Lattice& from, int i, int j, int
 // (lane by lane, IEEE single precision, no contraction), so the same bits. GCC's vector extensions rather
 // than a library: nothing packaged offers gathers and per-lane selects on plain SSE2.
 
-/// velocityAt<L, false> at (i .. i + kLanes - 1, j, k).
-template <int L>
+/// velocityAt<L, ClampRows> at (i .. i + kLanes - 1, j, k), where no lane's neighbour along x lies past
+/// the box's sides (the rows and layers the averages read may be clamped: they are the same for every lane).
+template <int L, bool ClampRows>
 void velocityAtLanes(const Lattices& vel, int i, int j, int k, float scale, Lanes& x, Lanes& y, Lanes& z) {
     const auto own = [&](const Lattice& l) {
         return loadAs<Lanes>(l.f + std::size_t(i) +
@@ -758,20 +759,20 @@ void velocityAtLanes(const Lattices& vel, int i, int j, int k, float scale, Lane
     };
     if constexpr (L == 0) {
         x = own(vel.u);
-        y = aligned<-1, 1, 0, false, Lanes>(vel.v, i, j, k);
-        z = aligned<-1, 0, 1, false, Lanes>(vel.w, i, j, k);
+        y = aligned<-1, 1, 0, ClampRows, Lanes>(vel.v, i, j, k);
+        z = aligned<-1, 0, 1, ClampRows, Lanes>(vel.w, i, j, k);
     } else if constexpr (L == 1) {
-        x = aligned<1, -1, 0, false, Lanes>(vel.u, i, j, k);
+        x = aligned<1, -1, 0, ClampRows, Lanes>(vel.u, i, j, k);
         y = own(vel.v);
-        z = aligned<0, -1, 1, false, Lanes>(vel.w, i, j, k);
+        z = aligned<0, -1, 1, ClampRows, Lanes>(vel.w, i, j, k);
     } else if constexpr (L == 2) {
-        x = aligned<1, 0, -1, false, Lanes>(vel.u, i, j, k);
-        y = aligned<0, 1, -1, false, Lanes>(vel.v, i, j, k);
+        x = aligned<1, 0, -1, ClampRows, Lanes>(vel.u, i, j, k);
+        y = aligned<0, 1, -1, ClampRows, Lanes>(vel.v, i, j, k);
         z = own(vel.w);
     } else {
-        x = aligned<1, 0, 0, false, Lanes>(vel.u, i, j, k);
-        y = aligned<0, 1, 0, false, Lanes>(vel.v, i, j, k);
-        z = aligned<0, 0, 1, false, Lanes>(vel.w, i, j, k);
+        x = aligned<1, 0, 0, ClampRows, Lanes>(vel.u, i, j, k);
+        y = aligned<0, 1, 0, ClampRows, Lanes>(vel.v, i, j, k);
+        z = aligned<0, 0, 1, ClampRows, Lanes>(vel.w, i, j, k);
     }
     x *= scale;
     y *= scale;
@@ -912,27 +913,29 @@ inline Lanes atNear(const Lattice& l, const float* field, const CornerLanes& c, 
     return lerpLanes(backZ ? layers[0] : layers[1], backZ ? layers[1] : layers[2], c.tz);
 }
 
-/// The stretch of a row of lattice L whose points' velocity averages stay inside the box (velocityAt's
-/// unclamped form): the whole row, or none of it, or all but its ends.
+/// The stretch of a row of lattice L whose points' velocity averages read no neighbour past the box's
+/// sides along x (all of it, but the u faces' first and last points), and whether the averages clamp the
+/// rows or layers they read: on the first and last rows of v faces, and layers of w faces (the same
+/// clamping for every point of the row).
 template <int L>
-std::pair<int, int> unclampedSpan(const Lattice& from, int j, int k) {
+std::tuple<int, int, bool> lanesSpan(const Lattice& from, int j, int k) {
     if constexpr (L == 0) {
-        return {1, from.nx - 1};
+        return {1, from.nx - 1, false};
     } else if constexpr (L == 1) {
-        return j == 0 || j == from.ny - 1 ? std::pair{0, 0} : std::pair{0, from.nx};
+        return {0, from.nx, j == 0 || j == from.ny - 1};
     } else if constexpr (L == 2) {
-        return k == 0 || k == from.nz - 1 ? std::pair{0, 0} : std::pair{0, from.nx};
+        return {0, from.nx, k == 0 || k == from.nz - 1};
     } else {
-        return {0, from.nx};
+        return {0, from.nx, false};
     }
 }
 
-/// advectLattice's row loop for points i .. i + kLanes - 1 (inside the unclamped span).
-template <int L>
+/// advectLattice's row loop for points i .. i + kLanes - 1 (inside lanesSpan's stretch).
+template <int L, bool ClampRows>
 void advectLanes(const Lattices& velocity, const Lattice& from, const float* second, float* out, float* out2,
                  float scale, int i, int j, int k) {
     Lanes vx, vy, vz;
-    velocityAtLanes<L>(velocity, i, j, k, scale, vx, vy, vz);
+    velocityAtLanes<L, ClampRows>(velocity, i, j, k, scale, vx, vy, vz);
     Lanes x;
     for (int lane = 0; lane < kLanes; ++lane) {
         x[lane] = float(i) + float(lane); // exact: the points' own x, as float(i + lane)
@@ -955,23 +958,30 @@ void advectLanes(const Lattices& velocity, const Lattice& from, const float* sec
 /// Every point of lattice L (whose shape `from` has) takes `from`'s fields (one, or two sharing the
 /// weights: smoke and heat) at the point the flow brought there over the step: the point followed back
 /// along the velocity there (`scale` = dt / dx, in cells). kLanes at a time where the velocity's averages
-/// need no clamping, one at a time elsewhere.
+/// need no clamping along x, one at a time elsewhere.
 template <int L>
 void advectLattice(const Lattices& velocity, const Lattice& from, const float* second, float* out,
                    float* out2, float scale, WorkerPool& pool) {
     forRows(pool, from.ny, from.nz, [&](int j, int k) {
         const std::size_t row = std::size_t(from.nx) * (std::size_t(j) + std::size_t(from.ny) * k);
         const float y = float(j) + from.oy, z = float(k) + from.oz;
-        const auto [begin, end] = unclampedSpan<L>(from, j, k);
+        const auto [begin, end, clampRows] = lanesSpan<L>(from, j, k);
+        const auto block = [&, clamp = clampRows](int i) {
+            if (clamp) {
+                advectLanes<L, true>(velocity, from, second, out, out2, scale, i, j, k);
+            } else {
+                advectLanes<L, false>(velocity, from, second, out, out2, scale, i, j, k);
+            }
+        };
         int lanesEnd = begin;
         for (; lanesEnd + kLanes <= end; lanesEnd += kLanes) {
-            advectLanes<L>(velocity, from, second, out, out2, scale, lanesEnd, j, k);
+            block(lanesEnd);
         }
         if (lanesEnd < end && end - begin >= kLanes) {
             // the last points of the span in one more block, overlapping the one before: a point computed
             // twice gets the same bits both times (and reads only `from`), and a block costs what a couple
             // of points one at a time do
-            advectLanes<L>(velocity, from, second, out, out2, scale, end - kLanes, j, k);
+            block(end - kLanes);
             lanesEnd = end;
         }
         for (int i = 0; i < from.nx; ++i) {
