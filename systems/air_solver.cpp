@@ -1057,54 +1057,57 @@ void advectFields(Air& air, const Lattices& velocity, const Lattice& from, const
 /// face speeds times dt over dx): what the conserving advection's substeps keep at one or under (out: no
 /// cell gives more than it has; in as well: every face's own speed is then within a cell a substep, which
 /// keeps Lax-Wendroff's factor 1 - c |s| from going negative). Infinite when a face's speed is not finite.
+/// max(x, 0) lane by lane, as std::max(x, 0.0f) gives it.
+inline Lanes ahead(Lanes x) {
+    return x < 0.0f ? Lanes{} : x;
+}
+
 double largestOutflow(const Air& air, double scale, WorkerPool& pool) {
     const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
     const std::size_t sv = std::size_t(nx), sw = std::size_t(nx) * std::size_t(ny);
-    // max(x, 0) and max(-x, 0), as std::max(x, 0.0f) gives them; four cells at a time below (g++ leaves a
-    // loop that keeps a maximum scalar), the rest one at a time: a maximum is the same in any order
-    const auto ahead = [](__m128 x) { return _mm_max_ps(_mm_setzero_ps(), x); };
-    const auto back = [](__m128 x) {
-        return _mm_max_ps(_mm_setzero_ps(), _mm_xor_ps(x, _mm_set1_ps(-0.0f)));
-    };
-    return sumRows(pool, ny, nz, Largest{},
-                   [&](int j, int k) {
-                       const float* u =
-                           air.u.data() + std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k);
-                       const float* v = air.v.data() + sv * (std::size_t(j) + std::size_t(ny + 1) * k);
-                       const float* w = air.w.data() + sw * std::size_t(k) + sv * std::size_t(j);
-                       __m128 most4 = _mm_setzero_ps(), unordered = _mm_setzero_ps();
-                       int i = 0;
-                       for (; i + 4 <= nx; i += 4) {
-                           const __m128 u0 = _mm_loadu_ps(u + i), u1 = _mm_loadu_ps(u + i + 1);
-                           const __m128 v0 = _mm_loadu_ps(v + i), v1 = _mm_loadu_ps(v + i + sv);
-                           const __m128 w0 = _mm_loadu_ps(w + i), w1 = _mm_loadu_ps(w + i + sw);
-                           const __m128 out = _mm_add_ps(
-                               _mm_add_ps(_mm_add_ps(back(u0), ahead(u1)), _mm_add_ps(back(v0), ahead(v1))),
-                               _mm_add_ps(back(w0), ahead(w1)));
-                           const __m128 in = _mm_add_ps(
-                               _mm_add_ps(_mm_add_ps(ahead(u0), back(u1)), _mm_add_ps(ahead(v0), back(v1))),
-                               _mm_add_ps(ahead(w0), back(w1)));
-                           most4 = _mm_max_ps(most4, _mm_max_ps(out, in));
-                           unordered = _mm_or_ps(unordered, _mm_cmpunord_ps(out, in));
-                       }
-                       float lanes[4];
-                       _mm_storeu_ps(lanes, most4);
-                       float most = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
-                       bool notFinite = _mm_movemask_ps(unordered) != 0;
-                       for (; i < nx; ++i) {
-                           const float out = ((std::max(-u[i], 0.0f) + std::max(u[i + 1], 0.0f)) +
-                                              (std::max(-v[i], 0.0f) + std::max(v[i + sv], 0.0f))) +
-                                             (std::max(-w[i], 0.0f) + std::max(w[i + sw], 0.0f));
-                           const float in = ((std::max(u[i], 0.0f) + std::max(-u[i + 1], 0.0f)) +
-                                             (std::max(v[i], 0.0f) + std::max(-v[i + sv], 0.0f))) +
-                                            (std::max(w[i], 0.0f) + std::max(-w[i + sw], 0.0f));
-                           most = std::max(most, std::max(out, in));
-                           notFinite = notFinite || std::isnan(out) || std::isnan(in);
-                       }
-                       // a NaN, which a maximum passes over, as an infinite flow
-                       return Largest{notFinite ? std::numeric_limits<double>::infinity()
-                                                : double(most) * scale};
-                   })
+    return sumRows(
+               pool, ny, nz, Largest{},
+               [&](int j, int k) {
+                   const float* u =
+                       air.u.data() + std::size_t(nx + 1) * (std::size_t(j) + std::size_t(ny) * k);
+                   const float* v = air.v.data() + sv * (std::size_t(j) + std::size_t(ny + 1) * k);
+                   const float* w = air.w.data() + sw * std::size_t(k) + sv * std::size_t(j);
+                   // kLanes cells at a time (g++ leaves a loop that keeps a maximum scalar), the rest
+                   // one at a time: a maximum is the same in any order
+                   Lanes mostLanes{};
+                   IntLanes unordered{};
+                   int i = 0;
+                   for (; i + kLanes <= nx; i += kLanes) {
+                       const Lanes u0 = loadAs<Lanes>(u + i), u1 = loadAs<Lanes>(u + i + 1),
+                                   v0 = loadAs<Lanes>(v + i), v1 = loadAs<Lanes>(v + i + sv),
+                                   w0 = loadAs<Lanes>(w + i), w1 = loadAs<Lanes>(w + i + sw);
+                       const Lanes out =
+                           ((ahead(-u0) + ahead(u1)) + (ahead(-v0) + ahead(v1))) + (ahead(-w0) + ahead(w1));
+                       const Lanes in =
+                           ((ahead(u0) + ahead(-u1)) + (ahead(v0) + ahead(-v1))) + (ahead(w0) + ahead(-w1));
+                       const Lanes larger = out < in ? in : out;
+                       mostLanes = mostLanes < larger ? larger : mostLanes;
+                       unordered |= (out != out) | (in != in);
+                   }
+                   float most = 0.0f;
+                   bool notFinite = false;
+                   for (int lane = 0; lane < kLanes; ++lane) {
+                       most = std::max(most, mostLanes[lane]);
+                       notFinite = notFinite || unordered[lane] != 0;
+                   }
+                   for (; i < nx; ++i) {
+                       const float out = ((std::max(-u[i], 0.0f) + std::max(u[i + 1], 0.0f)) +
+                                          (std::max(-v[i], 0.0f) + std::max(v[i + sv], 0.0f))) +
+                                         (std::max(-w[i], 0.0f) + std::max(w[i + sw], 0.0f));
+                       const float in = ((std::max(u[i], 0.0f) + std::max(-u[i + 1], 0.0f)) +
+                                         (std::max(v[i], 0.0f) + std::max(-v[i + sv], 0.0f))) +
+                                        (std::max(w[i], 0.0f) + std::max(-w[i + sw], 0.0f));
+                       most = std::max(most, std::max(out, in));
+                       notFinite = notFinite || std::isnan(out) || std::isnan(in);
+                   }
+                   // a NaN, which a maximum passes over, as an infinite flow
+                   return Largest{notFinite ? std::numeric_limits<double>::infinity() : double(most) * scale};
+               })
         .value;
 }
 
