@@ -539,10 +539,10 @@ double dotCells(const Air& air, const std::vector<float>& a, const std::vector<f
     });
 }
 
-/// The largest |v| seen, four floats at a time (g++ leaves a loop that keeps a maximum in double scalar):
-/// lane by lane, then over the lanes. A maximum does not depend on the order it is taken in, and maxpd(v,
-/// m) is (v > m ? v : m), std::max(m, v) to the bit, a NaN passed over as there; so the value is exactly
-/// the one a plain loop finds.
+/// The largest |v| seen, four floats at a time (g++ leaves a loop that keeps a maximum scalar): lane by
+/// lane, then over the lanes. A maximum does not depend on the order it is taken in, and maxps(v, m) is (v
+/// > m ? v : m), std::max(m, v) to the bit, a NaN passed over as there; so the value is exactly the one a
+/// plain loop finds.
 struct LargestAbs {
     __m128 most = _mm_setzero_ps();
 
@@ -681,7 +681,8 @@ void around(int i, int n, int (&out)[2]) {
 /// Lattice c at a point of another lattice whose offsets differ by (DX, DY, DZ) half cells, at that
 /// lattice's index (i, j, k): the mean of the two values either side along each axis where the point is
 /// half way, which is what trilinear sampling there gives, without the search for the corner. With T =
-/// Lanes (and no clamping), at i .. i + kLanes - 1: the lattice's values along a row are contiguous.
+/// Lanes, at i .. i + kLanes - 1: the lattice's values along a row are contiguous (clamped rows and layers
+/// are the same for every lane; no lane's x may need clamping: velocityAtLanes).
 template <int DX, int DY, int DZ, bool Clamp, class T = float>
 T aligned(const Lattice& c, int i, int j, int k) {
     int is[2], js[2], ks[2];
@@ -1053,15 +1054,15 @@ void advectFields(Air& air, const Lattices& velocity, const Lattice& from, const
     correctLattice<L>(velocity, from, second, s.back.data(), s.back2.data(), out, out2, scale, pool);
 }
 
-/// The most a cell's faces carry out of it, or into it, a step, in cells (the sum of its outward, or inward,
-/// face speeds times dt over dx): what the conserving advection's substeps keep at one or under (out: no
-/// cell gives more than it has; in as well: every face's own speed is then within a cell a substep, which
-/// keeps Lax-Wendroff's factor 1 - c |s| from going negative). Infinite when a face's speed is not finite.
 /// max(x, 0) lane by lane, as std::max(x, 0.0f) gives it.
 inline Lanes ahead(Lanes x) {
     return x < 0.0f ? Lanes{} : x;
 }
 
+/// The most a cell's faces carry out of it, or into it, a step, in cells (the sum of its outward, or inward,
+/// face speeds times dt over dx): what the conserving advection's substeps keep at one or under (out: no
+/// cell gives more than it has; in as well: every face's own speed is then within a cell a substep, which
+/// keeps Lax-Wendroff's factor 1 - c |s| from going negative). Infinite when a face's speed is not finite.
 double largestOutflow(const Air& air, double scale, WorkerPool& pool) {
     const int nx = air.cells[0], ny = air.cells[1], nz = air.cells[2];
     const std::size_t sv = std::size_t(nx), sw = std::size_t(nx) * std::size_t(ny);

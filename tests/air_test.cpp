@@ -223,28 +223,38 @@ TEST(Air, TheLargestDivergenceMissesNoCell) {
 
 // The advection refuses a grid with one NaN or infinite face anywhere (it would send the trilinear samples
 // past the arrays): a face of u, v or w at each place along a row 13 cells wide (one or two blocks of lanes
-// and the rest one at a time, in the SSE2 and the AVX2 builds), and the same grid with every face finite
+// and the rest one at a time), in the SSE2 and the AVX2 builds, and the same grid with every face finite
 // advects. Seen to fail with the lanes' NaN flags not read: a NaN in the first eight cells of a row (the
 // AVX2 build's lanes) was passed over, and the samples it sent past the arrays crashed the test.
 TEST(Air, AFaceNotFiniteAnywhereStopsTheAdvection) {
-    WorkerPool pool(2);
-    Air air = makeAir({13, 6, 5}, 0.1, AirBorder::Open);
-    for (const float bad : {std::nanf(""), INFINITY, -INFINITY}) {
-        for (std::vector<float>* faces : {&air.u, &air.v, &air.w}) {
-            const std::size_t row = faces == &air.u   ? 14 * (3 + 6 * 2)
-                                    : faces == &air.v ? 13 * (3 + 7 * 2)
-                                                      : 13 * (3 + 6 * 2);
-            for (std::size_t i = 0; i < 13; ++i) {
-                std::fill(air.u.begin(), air.u.end(), 0.5f);
-                std::fill(air.v.begin(), air.v.end(), 0.0f);
-                std::fill(air.w.begin(), air.w.end(), 0.0f);
-                ASSERT_TRUE(advectAir(air, 0.01, pool));
-                std::fill(air.u.begin(), air.u.end(), 0.5f);
-                (*faces)[row + i] = bad;
-                EXPECT_FALSE(advectAir(air, 0.01, pool)) << bad << " at " << i;
+    const Simd before = activeSimd();
+    for (const Simd simd : {Simd::Sse2, Simd::Avx2}) {
+        if (simd == Simd::Avx2 && !avx2Available()) {
+            continue;
+        }
+        forceSimd(simd);
+        WorkerPool pool(2);
+        Air air = makeAir({13, 6, 5}, 0.1, AirBorder::Open);
+        for (const float bad : {std::nanf(""), INFINITY, -INFINITY}) {
+            for (std::vector<float>* faces : {&air.u, &air.v, &air.w}) {
+                const bool u = faces == &air.u;
+                const std::size_t row = u                 ? 14 * (3 + 6 * 2)
+                                        : faces == &air.v ? 13 * (3 + 7 * 2)
+                                                          : 13 * (3 + 6 * 2);
+                for (std::size_t i = 0; i < (u ? 14u : 13u); ++i) {
+                    std::fill(air.u.begin(), air.u.end(), 0.5f);
+                    std::fill(air.v.begin(), air.v.end(), 0.0f);
+                    std::fill(air.w.begin(), air.w.end(), 0.0f);
+                    ASSERT_TRUE(advectAir(air, 0.01, pool));
+                    std::fill(air.u.begin(), air.u.end(), 0.5f);
+                    (*faces)[row + i] = bad;
+                    EXPECT_FALSE(advectAir(air, 0.01, pool))
+                        << bad << " at " << i << (simd == Simd::Avx2 ? ", AVX2" : ", SSE2");
+                }
             }
         }
     }
+    forceSimd(before);
 }
 
 // Still air uniformly 5 degrees warmer than nothing, with heat lifting it: in none of 300 steps does
