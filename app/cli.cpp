@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -254,11 +255,32 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
     return kExitOk;
 }
 
+/// A whole number in [lo, hi], said so when it is not one: CLI11's Range called "abc" and "2.5" "not in
+/// range 0 to 1000000000", which sends a user looking for a range the value was never in.
+CLI::Validator wholeNumberIn(std::int64_t lo, std::int64_t hi) {
+    return CLI::Validator(
+        [lo, hi](const std::string& text) {
+            std::int64_t v = 0;
+            const char* last = text.data() + text.size();
+            const auto [end, error] = std::from_chars(text.data(), last, v);
+            const std::string range = "from " + std::to_string(lo) + " to " + std::to_string(hi);
+            if (text.empty() || end != last ||
+                (error != std::errc{} && error != std::errc::result_out_of_range)) {
+                return "'" + text + "' is not a whole number (" + range + ")";
+            }
+            if (error == std::errc::result_out_of_range || v < lo || v > hi) {
+                return "'" + text + "' is out of range: " + range;
+            }
+            return std::string();
+        },
+        "", "a whole number");
+}
+
 void addMemoryCapOption(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("--memory-cap", o.memoryCapMiB,
                     "Refuse, at load, a scene whose components would need more memory than this, in MiB "
                     "(default 4096)")
-        ->check(CLI::Range(std::int64_t(1), std::int64_t(1) << 24))
+        ->check(wholeNumberIn(1, std::int64_t(1) << 24))
         ->type_name("MIB");
 }
 
@@ -289,7 +311,7 @@ void addThreadsOption(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("--threads", o.threads,
                     "Threads the physics runs on (default: $TUMBLE_THREADS, else every hardware thread); any "
                     "number gives the same bits")
-        ->check(CLI::Range(1, kMaxThreads))
+        ->check(wholeNumberIn(1, kMaxThreads))
         ->type_name("N");
 }
 
@@ -311,7 +333,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
         addThreadsOption(cmd, o);
         cmd->add_option("--frames", o.frames,
                         "How many frames to run (default: the scene's frames; a replay's own)")
-            ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)));
+            ->check(wholeNumberIn(0, 1'000'000'000));
         cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)")->check(nonEmpty);
         cmd->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
         cmd->add_option("--video", o.video,
@@ -321,7 +343,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
                "--png-every", o.pngEvery,
                "Write frame_NNNNN.png into the output folder every K frames (0: the last frame only, the "
                "default)")
-            ->check(CLI::Range(std::int64_t(0), std::int64_t(1'000'000'000)))
+            ->check(wholeNumberIn(0, 1'000'000'000))
             ->type_name("K");
         cmd->add_option("--profile", o.profile,
                         "Write the budget summary as JSON to FILE (default <out>/profile.json)")
@@ -334,14 +356,15 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
                 ->type_name("FILE");
         cmd->add_option("--dump-every", o.dumpEvery,
                         "Dump every K frames, starting with the initial state (default: the last frame only)")
-            ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
+            ->check(wholeNumberIn(1, 1'000'000'000))
             ->type_name("K")
             ->needs(dumpOption);
         cmd->add_option("--record", o.record,
                         "Write a replay to FILE: the scenario, every input and every frame's state hash")
             ->type_name("FILE");
-        cmd->add_flag("--quiet", o.quiet, "No progress bar and no summary");
-        cmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+        CLI::Option* quiet = cmd->add_flag("--quiet", o.quiet, "No progress bar and no summary");
+        cmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal")
+            ->excludes(quiet); // the two together would leave one of them silently unheeded
         cmd->add_flag(
             "--check-contact", o.checkContact,
             "After every step, test every pair of a self-colliding cloth's triangles that share no "
@@ -360,7 +383,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
            "--snapshot-at", o.snapshotAt,
            "After frame N write <out>/snapshot_N.tumble (resume it with --from) and snapshot_N.jsonl "
            "(the whole state)")
-        ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)))
+        ->check(wholeNumberIn(1, 1'000'000'000))
         ->type_name("N");
     run->add_option("--from", o.from,
                     "Resume from a snapshot: its frames are simulated again, checked against it, and the run "
@@ -375,7 +398,7 @@ void addBudgetVerb(CLI::App& app, RunOptions& o) {
     addScenarioOptions(budgetCmd, o);
     addThreadsOption(budgetCmd, o);
     budgetCmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
-        ->check(CLI::Range(std::int64_t(1), std::int64_t(1'000'000'000)));
+        ->check(wholeNumberIn(1, 1'000'000'000));
     budgetCmd
         ->add_option("--physics-ms", o.physicsMs,
                      "The budget, ms of physics a frame (default: [budget] physics_ms)")
@@ -388,8 +411,9 @@ void addBudgetVerb(CLI::App& app, RunOptions& o) {
     budgetCmd
         ->add_option("--chart", o.chart, "Write an SVG chart of physics time per frame with the budget line")
         ->type_name("FILE");
-    budgetCmd->add_flag("--quiet", o.quiet, "No progress bar");
-    budgetCmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal");
+    CLI::Option* quiet = budgetCmd->add_flag("--quiet", o.quiet, "No progress bar");
+    budgetCmd->add_flag("--progress", o.progress, "Show the progress bar even when stderr is not a terminal")
+        ->excludes(quiet);
 }
 
 void addViewVerb(CLI::App& app, RunOptions& o) {
@@ -431,19 +455,19 @@ void addSweepVerb(CLI::App& app, SweepOptions& o) {
     cmd->add_option("-j,--jobs", o.jobs,
                     "Cases at a time with --local or --shard (default: cores / threads "
                     "per case)")
-        ->check(CLI::Range(1, 1024))
+        ->check(wholeNumberIn(1, 1024))
         ->type_name("N");
     cmd->add_flag("--slurm", o.slurm,
                   "Submit the cases as a Slurm job array (sbatch), wait, run failed tasks "
                   "once more, merge");
     cmd->add_option("--partition", o.partition, "Slurm partition (default: the cluster's)")->type_name("P");
     cmd->add_option("--max-parallel", o.maxParallel, "At most K array tasks at once (Slurm's %K)")
-        ->check(CLI::Range(1, 1000000))
+        ->check(wholeNumberIn(1, 1000000))
         ->type_name("K");
     cmd->add_option("--tasks", o.tasks,
                     "Array tasks (default: one per case, at most 1000); task i runs the "
                     "cases whose index is i modulo N")
-        ->check(CLI::Range(1, 1000))
+        ->check(wholeNumberIn(1, 1000))
         ->type_name("N");
     cmd->add_flag("--no-wait", o.noWait, "With --slurm: submit and return (then --status, --merge)");
     cmd->add_option("--shard", o.shard, "Run shard I of N here (what each Slurm task runs)")
@@ -460,10 +484,12 @@ void addSweepVerb(CLI::App& app, SweepOptions& o) {
     cmd->add_option("--threads", o.threads,
                     "Threads each case's runs use (default: the file's threads); any "
                     "number gives the same bits")
-        ->check(CLI::Range(1, kMaxThreads))
+        ->check(wholeNumberIn(1, kMaxThreads))
         ->type_name("N");
-    cmd->add_flag("--quiet", o.quiet, "No progress, no summary, no line per failing case");
-    cmd->add_flag("--progress", o.progress, "Show the progress line even when stderr is not a terminal");
+    CLI::Option* quiet =
+        cmd->add_flag("--quiet", o.quiet, "No progress, no summary, no line per failing case");
+    cmd->add_flag("--progress", o.progress, "Show the progress line even when stderr is not a terminal")
+        ->excludes(quiet);
 }
 
 /// An unknown verb is named, rather than CLI11's "a subcommand is required".

@@ -60,8 +60,28 @@ TEST(Cli, UsageErrorsExitTwo) {
     const auto r = runTumble({"run", "pendulum", "--frams", "3"});
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_NE(r.err.find("--frams"), std::string::npos) << r.err;
-    EXPECT_EQ(runTumble({"run", "pendulum", "--frames", "-3"}).exitCode, 2);
-    EXPECT_EQ(runTumble({"run", "pendulum", "--frames", "ten"}).exitCode, 2);
+    // a count that is no whole number is told so, one out of range given its range (CLI11's Range said
+    // "Value ten not in range 0 to 1000000000" for both: seen before wholeNumberIn)
+    const auto negative = runTumble({"run", "pendulum", "--frames", "-3"});
+    EXPECT_EQ(negative.exitCode, 2);
+    EXPECT_NE(negative.err.find("--frames: '-3' is out of range: from 0 to 1000000000"), std::string::npos)
+        << negative.err;
+    for (const char* notWhole : {"ten", "2.5", "3x", ""}) {
+        const auto word = runTumble({"run", "pendulum", "--frames", notWhole});
+        EXPECT_EQ(word.exitCode, 2) << notWhole;
+        EXPECT_NE(word.err.find(std::string("--frames: '") + notWhole + "' is not a whole number"),
+                  std::string::npos)
+            << word.err;
+    }
+    // --progress and --quiet ask for opposite things: refused, not one of them silently dropped
+    for (const char* verb : {"run", "budget"}) {
+        const auto both = runTumble({verb, "pendulum", "--frames", "2", "--progress", "--quiet"});
+        EXPECT_EQ(both.exitCode, 2) << verb;
+        EXPECT_NE(both.err.find("--quiet excludes --progress"), std::string::npos) << both.err;
+    }
+    const auto huge = runTumble({"run", "pendulum", "--threads", "99999999999999999999"});
+    EXPECT_EQ(huge.exitCode, 2);
+    EXPECT_NE(huge.err.find("is out of range: from 1 to 256"), std::string::npos) << huge.err;
     EXPECT_EQ(runTumble({"run", "pendulum", "--dump-every", "0"}).exitCode, 2);
     const auto orphan = runTumble({"run", "pendulum", "--no-render", "--dump-every", "5"});
     EXPECT_EQ(orphan.exitCode, 2) << "--dump-every without --dump does nothing, so it is refused";

@@ -592,6 +592,13 @@ TEST(SweepLocal, ShardsRunTheirShareAndMergeMakesTheTable) {
               std::string::npos);
     EXPECT_EQ(runTumble({"sweep", file, "--status", "--threads", "3", "--out", sharded}).exitCode, 2);
     EXPECT_EQ(runTumble({"sweep", file, "--local", "--out", ""}).exitCode, 2);
+    // and --progress with --quiet showed no progress: now refused, as two counts that are no whole number
+    const auto both = runTumble({"sweep", file, "--local", "--progress", "--quiet", "--out", sharded});
+    EXPECT_EQ(both.exitCode, 2);
+    EXPECT_NE(both.err.find("--quiet excludes --progress"), std::string::npos) << both.err;
+    const auto jobs = runTumble({"sweep", file, "--local", "-j", "two", "--out", sharded});
+    EXPECT_EQ(jobs.exitCode, 2);
+    EXPECT_NE(jobs.err.find("'two' is not a whole number (from 1 to 1024)"), std::string::npos) << jobs.err;
 }
 
 TEST(SweepLocal, PlotDrawsEachCaseAndTheBudgetForTimes) {
