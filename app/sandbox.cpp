@@ -12,6 +12,7 @@
 #include "engine/replay.h"
 #include "engine/run_report.h"
 #include "engine/simulation.h"
+#include "engine/table_reader.h"
 #include "systems/builtin.h"
 
 #include <nlohmann/json.hpp>
@@ -86,7 +87,16 @@ struct Sandbox::State {
                                         "' has no state the dump lists (no positions or velocities)");
             }
         }
-        throw ScenarioError(path, 0, 0, "no entity '" + name + "' in the scene");
+        std::vector<std::string> names;
+        for (Entity e : world.entities()) {
+            if (const Name* n = world.tryGet<Name>(e)) {
+                names.push_back(n->value);
+            }
+        }
+        const std::string near = nearestName(name, names);
+        throw ScenarioError(path, 0, 0,
+                            "no entity '" + name + "' in the scene" +
+                                (near.empty() ? "" : " (did you mean '" + near + "'?)"));
     }
 
     /// One entity's table of the dump (as the whole dump line has it), or a ScenarioError.
@@ -327,10 +337,11 @@ std::string verifyReplay(const std::string& path, int threads) {
     if (diverged.empty() && code != kExitOk && code != kExitFailure) {
         // not a divergence, but not every frame checked either (an interrupt stopped it); a failure (a
         // blow-up) does not stop a run, and the recording met it too
-        diverged = "the replay's run stopped before its end (exit code " + std::to_string(code) + ")";
+        diverged =
+            path + ": the replay's run stopped before its end (exit code " + std::to_string(code) + ")";
     }
     if (diverged.empty() && !complete) {
-        diverged = "the replay is cut short at byte " + std::to_string(validBytes) +
+        diverged = path + ": the replay is cut short at byte " + std::to_string(validBytes) +
                    " (a recording that was stopped): the frames it holds match, the rest are not in it";
     }
     return diverged;

@@ -93,9 +93,23 @@ void bindSandbox(py::module_& m) {
                 if (frames < 0 || frames > std::numeric_limits<int>::max()) {
                     throw py::value_error("frames must be from 0 to 2**31 - 1");
                 }
-                withLock(s, [&](Sandbox& b) { b.step(int(frames)); });
+                const std::vector<std::string> fresh = withLock(s, [&](Sandbox& b) {
+                    const std::size_t before = b.failures().size();
+                    b.step(int(frames));
+                    std::vector<std::string> all = b.failures();
+                    return std::vector<std::string>(all.begin() + std::ptrdiff_t(before), all.end());
+                });
+                // each problem met while stepping (a blow-up) as a RuntimeWarning, once, as the command line
+                // prints it: step() returned as if all were well, the blow-up in failures() alone
+                for (const std::string& failure : fresh) {
+                    if (PyErr_WarnEx(PyExc_RuntimeWarning, failure.c_str(), 1) != 0) {
+                        throw py::error_already_set(); // warnings turned into errors
+                    }
+                }
             },
-            py::arg("frames") = 1, "Runs frames (each the scene's substeps fixed steps), the GIL released.")
+            py::arg("frames") = 1,
+            "Runs frames (each the scene's substeps fixed steps), the GIL released. A problem met on the way "
+            "(a blow-up) is warned of (RuntimeWarning) and kept in failures().")
         .def_property_readonly(
             "frame", [](Locked& s) { return withLock(s, [](Sandbox& b) { return b.frame(); }); },
             "Frames run.")

@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -252,7 +253,8 @@ def test_a_run_that_blew_up_as_recorded_verifies(tmp_path, capfd):
     sim = tumble.Sandbox("rope", set=["chain.rope.integrator=symplectic_euler", "chain.rope.stiffness=1e9"],
                          threads=1)
     sim.record(path)
-    sim.step(5)
+    with pytest.warns(RuntimeWarning, match="blew up"):
+        sim.step(5)
     sim.finish_recording()
     assert sim.failures(), "the stiff rope should blow up under symplectic Euler"
     capfd.readouterr()
@@ -297,6 +299,31 @@ def test_an_entity_without_state_is_named_as_such():
         tumble.Sandbox("curtain", threads=1).x("wind")
 
 
+def test_a_misspelt_entity_is_given_the_nearest_name():
+    # x(), v() and dump-like reads said "no entity 'chian' in the scene" alone; apply() already suggested
+    sim = tumble.Sandbox("rope", threads=1)
+    for read in (sim.x, sim.v):
+        with pytest.raises(tumble.ScenarioError, match=r"no entity 'chian' in the scene \(did you mean 'chain'\?\)"):
+            read("chian")
+
+
+def test_a_blow_up_while_stepping_is_warned_of_once():
+    # step() returned as if all were well: the blow-up was in failures() alone
+    sim = tumble.Sandbox("rope", set=["chain.rope.integrator=symplectic_euler", "chain.rope.stiffness=1e9"],
+                         threads=1)
+    with pytest.warns(RuntimeWarning, match="blew up|not finite") as caught:
+        sim.step(5)
+    assert [str(w.message) for w in caught] == sim.failures()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a failure already warned of is not warned of again
+        sim.step(2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        calm = tumble.Sandbox("rope", threads=1)
+        calm.step(30)
+        assert calm.failures() == []
+
+
 def test_verify_of_a_replay_cut_short_raises(tmp_path):
     # it returned True for the frames the file held: 0 of them, for a file cut after its header
     path = tmp_path / "r.tumble"
@@ -306,5 +333,6 @@ def test_verify_of_a_replay_cut_short_raises(tmp_path):
     sim.finish_recording()
     data = path.read_bytes()
     path.write_bytes(data[: len(data) * 2 // 3])
-    with pytest.raises(RuntimeError, match="cut short at byte"):
+    # and the message did not name the file
+    with pytest.raises(RuntimeError, match=r"r\.tumble: the replay is cut short at byte"):
         tumble.verify(path, threads=1)
