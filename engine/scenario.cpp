@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -128,21 +129,30 @@ void applyOverride(toml::table& root, const std::string& spec, const char* how, 
     const std::string& last = path.back();
     toml::table parsed;
     bool isToml = text.find('\n') == std::string::npos && text.find('\r') == std::string::npos;
+    std::string tomlSays; // what the TOML parser found wrong, for the message (1e400: out of range)
     if (isToml) {
         try {
             parsed = toml::parse("v = " + text, origin);
-        } catch (const toml::parse_error&) {
+        } catch (const toml::parse_error& e) {
             isToml = false;
+            tomlSays = std::string(e.description());
         }
     }
     if (isToml && parsed.size() == 1 && parsed.contains("v")) {
         parsed.get("v")->visit([&](auto&& n) { table->insert_or_assign(last, std::move(n)); });
     } else if (isBareWord(text)) {
         table->insert_or_assign(last, text);
+    } else if (char* end = nullptr; !text.empty() && std::isinf(std::strtod(text.c_str(), &end)) &&
+                                    end == text.c_str() + text.size() &&
+                                    text.find_first_of("iInN") == std::string::npos) {
+        throw ScenarioError(ctx.file, 0, 0,
+                            origin + ": the number is beyond a double's range (about +-1.8e308)");
     } else {
         throw ScenarioError(ctx.file, 0, 0,
-                            origin + ": the value is not one TOML value (a number, true/false, [array], "
-                                     "\"string\") nor a bare word");
+                            origin +
+                                ": the value is not one TOML value (a number, true/false, [array], "
+                                "\"string\") nor a bare word" +
+                                (tomlSays.empty() ? std::string() : "; as TOML: " + tomlSays));
     }
     ctx.overrideOf[table->get(last)] = origin;
 }

@@ -388,7 +388,14 @@ std::vector<BadCase> cases() {
          kScene,
          {"--set", "scene.dt=1e999"},
          0,
-         "--set scene.dt=1e999: the value is not one TOML value"},
+         "--set scene.dt=1e999: the number is beyond a double's range (about +-1.8e308)"},
+        {"set_not_toml_says_what_toml_found",
+         kScene,
+         {"--set", "scene.dt=[1,"},
+         0,
+         "--set scene.dt=[1,: the value is not one TOML value (a number, true/false, [array], \"string\") "
+         "nor a "
+         "bare word; as TOML: Error while parsing array"},
         {"set_creates_misspelt_component",
          kScene + kBob,
          {"--set", "bob.watr.depth=3"},
