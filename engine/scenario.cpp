@@ -69,6 +69,41 @@ toml::table* findEntityTable(toml::table& root, std::string_view name) {
     return nullptr;
 }
 
+/// An override's value put at `last` in `table`: one TOML value, or a bare word taken as a string
+/// (integrator=rk4); anything else is an error, which says what TOML found wrong with it.
+void setOverrideValue(toml::table& table, const std::string& last, const std::string& text,
+                      const std::string& origin, LoadContext& ctx) {
+    toml::table parsed;
+    bool isToml = text.find('\n') == std::string::npos && text.find('\r') == std::string::npos;
+    std::string tomlSays; // what the TOML parser found wrong, for the message
+    if (isToml) {
+        try {
+            parsed = toml::parse("v = " + text, origin);
+        } catch (const toml::parse_error& e) {
+            isToml = false;
+            tomlSays = std::string(e.description());
+        }
+    }
+    if (isToml && parsed.size() == 1 && parsed.contains("v")) {
+        parsed.get("v")->visit([&](auto&& n) { table.insert_or_assign(last, std::move(n)); });
+    } else if (isBareWord(text)) {
+        table.insert_or_assign(last, text);
+    } else if (char* end = nullptr; // a number TOML refused for its size: strtod reads all of it as an
+                                    // infinity, and it is no spelling of inf or nan
+               !text.empty() && std::isinf(std::strtod(text.c_str(), &end)) &&
+               end == text.c_str() + text.size() && text.find_first_of("iInN") == std::string::npos) {
+        throw ScenarioError(ctx.file, 0, 0,
+                            origin + ": the number is beyond a double's range (about +-1.8e308)");
+    } else {
+        throw ScenarioError(ctx.file, 0, 0,
+                            origin +
+                                ": the value is not one TOML value (a number, true/false, [array], "
+                                "\"string\") nor a bare word" +
+                                (tomlSays.empty() ? std::string() : "; as TOML: " + tomlSays));
+    }
+    ctx.overrideOf[table.get(last)] = origin;
+}
+
 /// Applies KEY=VALUE to the tree; `how` ("--set", "set") begins the messages that quote it.
 void applyOverride(toml::table& root, const std::string& spec, const char* how, LoadContext& ctx) {
     // messages quote the override, shortened: a long value need not be echoed whole
@@ -125,36 +160,7 @@ void applyOverride(toml::table& root, const std::string& spec, const char* how, 
         table = next;
     }
 
-    // the value: one TOML value, or a bare word taken as a string (integrator=rk4); anything else is an error
-    const std::string& last = path.back();
-    toml::table parsed;
-    bool isToml = text.find('\n') == std::string::npos && text.find('\r') == std::string::npos;
-    std::string tomlSays; // what the TOML parser found wrong, for the message (1e400: out of range)
-    if (isToml) {
-        try {
-            parsed = toml::parse("v = " + text, origin);
-        } catch (const toml::parse_error& e) {
-            isToml = false;
-            tomlSays = std::string(e.description());
-        }
-    }
-    if (isToml && parsed.size() == 1 && parsed.contains("v")) {
-        parsed.get("v")->visit([&](auto&& n) { table->insert_or_assign(last, std::move(n)); });
-    } else if (isBareWord(text)) {
-        table->insert_or_assign(last, text);
-    } else if (char* end = nullptr; !text.empty() && std::isinf(std::strtod(text.c_str(), &end)) &&
-                                    end == text.c_str() + text.size() &&
-                                    text.find_first_of("iInN") == std::string::npos) {
-        throw ScenarioError(ctx.file, 0, 0,
-                            origin + ": the number is beyond a double's range (about +-1.8e308)");
-    } else {
-        throw ScenarioError(ctx.file, 0, 0,
-                            origin +
-                                ": the value is not one TOML value (a number, true/false, [array], "
-                                "\"string\") nor a bare word" +
-                                (tomlSays.empty() ? std::string() : "; as TOML: " + tomlSays));
-    }
-    ctx.overrideOf[table->get(last)] = origin;
+    setOverrideValue(*table, path.back(), text, origin, ctx);
 }
 
 // ---- sections
