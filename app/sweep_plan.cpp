@@ -193,7 +193,10 @@ SweepMetric readMetric(const toml::table& t, std::size_t i, const LoadContext& c
     m.column = int(t.source().begin.column);
     TableReader r(t, "[[metric]] " + std::to_string(i + 1), ctx);
     m.name = r.requiredString("name");
-    if (m.name.empty() || m.name.find_first_of(",\"\n\r") != std::string::npos) {
+    if (m.name.empty()) {
+        r.fail("name", "a metric's name is its column's heading: it must not be empty");
+    }
+    if (m.name.find_first_of(",\"\n\r") != std::string::npos) {
         r.fail("name", "a metric's name is its column: no commas, quotes or line breaks");
     }
     m.entity = r.requiredString("entity");

@@ -231,6 +231,10 @@ TEST(SweepPlan, BadInputIsLocatedWithADidYouMean) {
          3},
         {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"m\"\nentity = \"chain\"\nfield = \"y\"\n",
          "one of", 6},
+        // an empty name was told it had commas, quotes or line breaks
+        {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"\"\nentity = \"chain\"\n", "must not be empty",
+         4},
+        {"[sweep]\nscenario = \"rope\"\n[[metric]]\nname = \"a,b\"\nentity = \"chain\"\n", "no commas", 4},
         {"[sweep]\nscenario = \"rope\"\nthreads = 512\n", "outside", 3},
         // frames = 0 ran the scene's whole length (found by a reviewer who had not seen the code)
         {"[sweep]\nscenario = \"rope\"\nframes = 0\n", "'frames' in [sweep] is 0, outside [1,", 3},
