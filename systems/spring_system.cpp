@@ -8,6 +8,7 @@
 #include "engine/retune.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
+#include "engine/table_reader.h"
 #include "engine/transform.h"
 #include "systems/cloth_collision.h"
 #include "systems/fem.h"
@@ -568,7 +569,7 @@ std::optional<std::string> needsIndices(const World& world, Entity e, const Even
     }
     for (double d : ev.value) {
         if (d < 0 || d != std::floor(d) || d >= static_cast<double>(n)) {
-            return "mass index " + std::to_string(d) + " is not a whole number in [0, " +
+            return "mass index " + formatNumber(d) + " is not a whole number in [0, " +
                    std::to_string(n - 1) + "]";
         }
     }
