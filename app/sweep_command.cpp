@@ -252,8 +252,15 @@ int sweepStatus(const Sweep& s, const std::string& out) {
 }
 
 int sweepMerge(const Sweep& s, const std::string& out) {
-    checkManifest(s, out);
-    fs::create_directories(out);
+    if (!checkManifest(s, out)) {
+        // no folder of this sweep's runs: a results.csv of empty rows written there (any folder --out
+        // named, made if missing) would only mislead
+        std::fprintf(stderr,
+                     "tumble sweep: %s holds no run of this sweep (no sweep.json): nothing to merge; run it "
+                     "first (--local, --slurm or --shard)\n",
+                     out.c_str());
+        return kExitFailure;
+    }
     const std::size_t missing = mergeResults(s, out);
     std::printf("%s/results.csv: %zu of %zu cases\n", out.c_str(), s.caseCount() - missing, s.caseCount());
     if (missing) {

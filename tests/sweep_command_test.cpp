@@ -525,7 +525,8 @@ TEST(SweepLocal, AnotherSweepsResultsInTheFolderAreNotTakenForThisOnes) {
     const std::string b = writeTemp("mixed_b.toml", ropeSweep(axis, "", 21));
     const auto merged = runTumble({"sweep", b, "--merge", "--out", out});
     EXPECT_EQ(merged.exitCode, 1) << merged.err;
-    EXPECT_NE(merged.err.find("2 cases have not run"), std::string::npos) << merged.err;
+    // (with no sweep.json left, the folder holds no run of b at all: said so, and no table written)
+    EXPECT_NE(merged.err.find("holds no run of this sweep"), std::string::npos) << merged.err;
     // and its own run does them again, rather than skipping them as done
     ASSERT_EQ(runTumble({"sweep", b, "--local", "--out", out}).exitCode, 0);
     const auto rows = readCsv(out + "/results.csv");
@@ -596,6 +597,13 @@ TEST(SweepLocal, ShardsRunTheirShareAndMergeMakesTheTable) {
               std::string::npos);
     EXPECT_EQ(runTumble({"sweep", file, "--status", "--threads", "3", "--out", sharded}).exitCode, 2);
     EXPECT_EQ(runTumble({"sweep", file, "--local", "--out", ""}).exitCode, 2);
+    // --merge wrote a results.csv of empty rows into any folder it was given, made if missing
+    const std::string elsewhere = test::tempPath("not_a_sweep_folder");
+    std::filesystem::remove_all(elsewhere);
+    const auto merged = runTumble({"sweep", file, "--merge", "--out", elsewhere});
+    EXPECT_EQ(merged.exitCode, 1);
+    EXPECT_NE(merged.err.find("holds no run of this sweep"), std::string::npos) << merged.err;
+    EXPECT_FALSE(std::filesystem::exists(elsewhere));
     // and --progress with --quiet showed no progress: now refused, as two counts that are no whole number
     const auto both = runTumble({"sweep", file, "--local", "--progress", "--quiet", "--out", sharded});
     EXPECT_EQ(both.exitCode, 2);
