@@ -205,11 +205,18 @@ void drawSeries(std::string& svg, const PlotFrame& f, const Series& series) {
         std::vector<PlotPoint> sorted = points;
         std::stable_sort(sorted.begin(), sorted.end(),
                          [](const PlotPoint& a, const PlotPoint& b) { return a.x < b.x; });
+        // the line through the cases that ended ok, broken at any that did not (a blow-up's times are no
+        // point of the curve: it was drawn through them)
         std::string path;
+        bool drawing = false;
         for (const PlotPoint& p : sorted) {
-            if (p.finite) {
-                path += (path.empty() ? "M" : " L") + number(f.px(p.x)) + " " + number(f.py(p.y));
+            if (p.ok && p.finite) {
+                path += std::string(drawing        ? " L"
+                                    : path.empty() ? "M"
+                                                   : " M") +
+                        number(f.px(p.x)) + " " + number(f.py(p.y));
             }
+            drawing = p.ok && p.finite;
         }
         svg += "<path d='" + path + "' fill='none' stroke='" + colour + "' stroke-width='1.5'/>\n";
         for (const PlotPoint& p : sorted) {

@@ -634,6 +634,8 @@ TEST(SweepLocal, PlotDrawsEachCaseAndTheBudgetForTimes) {
     EXPECT_EQ(count("<circle"), 4u);
     EXPECT_EQ(count(">x</text>"), 2u);
     EXPECT_EQ(count("<path"), 2u);
+    // each line joins its two cases that ended ok, not the blown-up one (it was drawn through it: 4)
+    EXPECT_EQ(count(" L"), 2u);
     EXPECT_NE(svg.find("budget 2 ms"), std::string::npos);
     EXPECT_NE(svg.find("chain.rope.damping = 0.3"), std::string::npos);
     const auto bad = runTumble({"sweep", file, "--plot", "physics_p99_m", "--out", out});
