@@ -256,31 +256,43 @@ int commandBudget(const Catalog& catalog, const RunOptions& o) {
 }
 
 /// A whole number in [lo, hi], said so when it is not one: CLI11's Range called "abc" and "2.5" "not in
-/// range 0 to 1000000000", which sends a user looking for a range the value was never in.
+/// range 0 to 1000000000", which sends a user looking for a range the value was never in. Decimal, with
+/// an optional '+' and spaces around, and given to CLI11 rewritten as plain digits (CLI11 reads integers
+/// with strtoll in base 0, so "010" would be stored as 8 and "0x10" as 16): use it with ->transform().
 CLI::Validator wholeNumberIn(std::int64_t lo, std::int64_t hi) {
+    const std::string range = "from " + std::to_string(lo) + " to " + std::to_string(hi);
     return CLI::Validator(
-        [lo, hi](const std::string& text) {
+        [lo, hi, range](std::string& text) {
+            std::string_view digits = text;
+            while (!digits.empty() && (digits.front() == ' ' || digits.front() == '\t')) {
+                digits.remove_prefix(1);
+            }
+            while (!digits.empty() && (digits.back() == ' ' || digits.back() == '\t')) {
+                digits.remove_suffix(1);
+            }
+            if (!digits.empty() && digits.front() == '+') {
+                digits.remove_prefix(1);
+            }
             std::int64_t v = 0;
-            const char* last = text.data() + text.size();
-            const auto [end, error] = std::from_chars(text.data(), last, v);
-            const std::string range = "from " + std::to_string(lo) + " to " + std::to_string(hi);
-            if (text.empty() || end != last ||
+            const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
+            if (digits.empty() || end != digits.data() + digits.size() ||
                 (error != std::errc{} && error != std::errc::result_out_of_range)) {
                 return "'" + text + "' is not a whole number (" + range + ")";
             }
             if (error == std::errc::result_out_of_range || v < lo || v > hi) {
                 return "'" + text + "' is out of range: " + range;
             }
+            text = std::to_string(v);
             return std::string();
         },
-        "", "a whole number");
+        "in [" + std::to_string(lo) + " - " + std::to_string(hi) + "]", "a whole number");
 }
 
 void addMemoryCapOption(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("--memory-cap", o.memoryCapMiB,
                     "Refuse, at load, a scene whose components would need more memory than this, in MiB "
                     "(default 4096)")
-        ->check(wholeNumberIn(1, std::int64_t(1) << 24))
+        ->transform(wholeNumberIn(1, std::int64_t(1) << 24))
         ->type_name("MIB");
 }
 
@@ -311,7 +323,7 @@ void addThreadsOption(CLI::App* cmd, RunOptions& o) {
     cmd->add_option("--threads", o.threads,
                     "Threads the physics runs on (default: $TUMBLE_THREADS, else every hardware thread); any "
                     "number gives the same bits")
-        ->check(wholeNumberIn(1, kMaxThreads))
+        ->transform(wholeNumberIn(1, kMaxThreads))
         ->type_name("N");
 }
 
@@ -333,7 +345,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
         addThreadsOption(cmd, o);
         cmd->add_option("--frames", o.frames,
                         "How many frames to run (default: the scene's frames; a replay's own)")
-            ->check(wholeNumberIn(0, 1'000'000'000));
+            ->transform(wholeNumberIn(0, 1'000'000'000));
         cmd->add_option("--out", o.out, "Where outputs go (default out/<scene name>/)")->check(nonEmpty);
         cmd->add_flag("--no-render", o.noRender, "Simulate only; no EGL context is created");
         cmd->add_option("--video", o.video,
@@ -343,7 +355,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
                "--png-every", o.pngEvery,
                "Write frame_NNNNN.png into the output folder every K frames (0: the last frame only, the "
                "default)")
-            ->check(wholeNumberIn(0, 1'000'000'000))
+            ->transform(wholeNumberIn(0, 1'000'000'000))
             ->type_name("K");
         cmd->add_option("--profile", o.profile,
                         "Write the budget summary as JSON to FILE (default <out>/profile.json)")
@@ -356,7 +368,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
                 ->type_name("FILE");
         cmd->add_option("--dump-every", o.dumpEvery,
                         "Dump every K frames, starting with the initial state (default: the last frame only)")
-            ->check(wholeNumberIn(1, 1'000'000'000))
+            ->transform(wholeNumberIn(1, 1'000'000'000))
             ->type_name("K")
             ->needs(dumpOption);
         cmd->add_option("--record", o.record,
@@ -383,7 +395,7 @@ void addRunOptions(CLI::App* run, CLI::App* replay, RunOptions& o) {
            "--snapshot-at", o.snapshotAt,
            "After frame N write <out>/snapshot_N.tumble (resume it with --from) and snapshot_N.jsonl "
            "(the whole state)")
-        ->check(wholeNumberIn(1, 1'000'000'000))
+        ->transform(wholeNumberIn(1, 1'000'000'000))
         ->type_name("N");
     run->add_option("--from", o.from,
                     "Resume from a snapshot: its frames are simulated again, checked against it, and the run "
@@ -398,7 +410,7 @@ void addBudgetVerb(CLI::App& app, RunOptions& o) {
     addScenarioOptions(budgetCmd, o);
     addThreadsOption(budgetCmd, o);
     budgetCmd->add_option("--frames", o.frames, "How many frames to run (default: the scene's frames)")
-        ->check(wholeNumberIn(1, 1'000'000'000));
+        ->transform(wholeNumberIn(1, 1'000'000'000));
     budgetCmd
         ->add_option("--physics-ms", o.physicsMs,
                      "The budget, ms of physics a frame (default: [budget] physics_ms)")
@@ -455,19 +467,19 @@ void addSweepVerb(CLI::App& app, SweepOptions& o) {
     cmd->add_option("-j,--jobs", o.jobs,
                     "Cases at a time with --local or --shard (default: cores / threads "
                     "per case)")
-        ->check(wholeNumberIn(1, 1024))
+        ->transform(wholeNumberIn(1, 1024))
         ->type_name("N");
     cmd->add_flag("--slurm", o.slurm,
                   "Submit the cases as a Slurm job array (sbatch), wait, run failed tasks "
                   "once more, merge");
     cmd->add_option("--partition", o.partition, "Slurm partition (default: the cluster's)")->type_name("P");
     cmd->add_option("--max-parallel", o.maxParallel, "At most K array tasks at once (Slurm's %K)")
-        ->check(wholeNumberIn(1, 1000000))
+        ->transform(wholeNumberIn(1, 1000000))
         ->type_name("K");
     cmd->add_option("--tasks", o.tasks,
                     "Array tasks (default: one per case, at most 1000); task i runs the "
                     "cases whose index is i modulo N")
-        ->check(wholeNumberIn(1, 1000))
+        ->transform(wholeNumberIn(1, 1000))
         ->type_name("N");
     cmd->add_flag("--no-wait", o.noWait, "With --slurm: submit and return (then --status, --merge)");
     cmd->add_option("--shard", o.shard, "Run shard I of N here (what each Slurm task runs)")
@@ -484,7 +496,7 @@ void addSweepVerb(CLI::App& app, SweepOptions& o) {
     cmd->add_option("--threads", o.threads,
                     "Threads each case's runs use (default: the file's threads); any "
                     "number gives the same bits")
-        ->check(wholeNumberIn(1, kMaxThreads))
+        ->transform(wholeNumberIn(1, kMaxThreads))
         ->type_name("N");
     CLI::Option* quiet =
         cmd->add_flag("--quiet", o.quiet, "No progress, no summary, no line per failing case");

@@ -24,6 +24,12 @@ std::string formatLocation(const std::string& file, int line, int column) {
     return s;
 }
 
+std::string formatNumber(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
 std::size_t editDistance(std::string_view a, std::string_view b) {
     std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
     for (std::size_t j = 0; j <= b.size(); ++j) {
@@ -41,12 +47,6 @@ std::size_t editDistance(std::string_view a, std::string_view b) {
 }
 
 } // namespace
-
-std::string formatNumber(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
 
 ScenarioError::ScenarioError(std::string file, int line, int column, const std::string& message)
     : std::runtime_error(formatLocation(file, line, column) + ": " + message), m_file(std::move(file)),

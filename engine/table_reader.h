@@ -138,10 +138,6 @@ private:
     std::vector<std::string> m_known;
 };
 
-/// A number as a message shows it: six significant digits, no trailing zeros (-1, 2.5, 1e+20), where
-/// std::to_string wrote -1.000000.
-std::string formatNumber(double v);
-
 /// The known name closest to a typo (edit distance at most 2), or "" when none is close.
 std::string nearestName(std::string_view typo, const std::vector<std::string>& known);
 

@@ -79,6 +79,18 @@ TEST(Cli, UsageErrorsExitTwo) {
         EXPECT_EQ(both.exitCode, 2) << verb;
         EXPECT_NE(both.err.find("--quiet excludes --progress"), std::string::npos) << both.err;
     }
+    // decimal, as written: CLI11 alone read "010" in base 0, as 8 (its check, in base 10, saw 10)
+    const auto octal =
+        runTumble({"run", "pendulum", "--frames", "010", "--no-render", "--out", tempPath("frames_010")});
+    EXPECT_EQ(octal.exitCode, 0) << octal.err;
+    EXPECT_NE((octal.out + octal.err).find("pendulum: 10 frames"), std::string::npos)
+        << octal.out << octal.err;
+    EXPECT_EQ(
+        runTumble({"run", "pendulum", "--frames", "+2", "--no-render", "--out", tempPath("frames_plus")})
+            .exitCode,
+        0);
+    EXPECT_NE(runTumble({"run", "pendulum", "--frames", "0x10"}).err.find("'0x10' is not a whole number"),
+              std::string::npos);
     const auto huge = runTumble({"run", "pendulum", "--threads", "99999999999999999999"});
     EXPECT_EQ(huge.exitCode, 2);
     EXPECT_NE(huge.err.find("is out of range: from 1 to 256"), std::string::npos) << huge.err;
