@@ -8,7 +8,6 @@
 #include "engine/retune.h"
 #include "engine/run_report.h"
 #include "engine/scene.h"
-#include "engine/table_reader.h"
 #include "engine/transform.h"
 #include "systems/cloth_collision.h"
 #include "systems/fem.h"
@@ -17,6 +16,7 @@
 #include "systems/spring_integrators.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -562,6 +562,14 @@ std::optional<std::string> needsVector(const World&, Entity, const EventDef& ev)
     return std::nullopt;
 }
 
+/// A number as it was written, the shortest text that reads back as it (-1, 2.5, 2.0000001, 7), where
+/// std::to_string gave -1.000000.
+std::string asWritten(double d) {
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, d).ptr;
+    return std::string(text, end);
+}
+
 std::optional<std::string> needsIndices(const World& world, Entity e, const EventDef& ev) {
     const std::size_t n = world.get<SpringNetwork>(e).x.size();
     if (ev.value.empty()) {
@@ -569,8 +577,8 @@ std::optional<std::string> needsIndices(const World& world, Entity e, const Even
     }
     for (double d : ev.value) {
         if (d < 0 || d != std::floor(d) || d >= static_cast<double>(n)) {
-            return "mass index " + formatNumber(d) + " is not a whole number in [0, " +
-                   std::to_string(n - 1) + "]";
+            return "mass index " + asWritten(d) + " is not a whole number in [0, " + std::to_string(n - 1) +
+                   "]";
         }
     }
     return std::nullopt;
