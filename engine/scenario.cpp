@@ -88,10 +88,11 @@ void setOverrideValue(toml::table& table, const std::string& last, const std::st
         parsed.get("v")->visit([&](auto&& n) { table.insert_or_assign(last, std::move(n)); });
     } else if (isBareWord(text)) {
         table.insert_or_assign(last, text);
-    } else if (char* end = nullptr; // a number TOML refused for its size: strtod reads all of it as an
-                                    // infinity, and it is no spelling of inf or nan
+    } else if (char* end =
+                   nullptr; // a number TOML refused for its size: strtod reads all of it as an
+                            // infinity, and it is no spelling of inf or nan, nor a hex float (not TOML)
                !text.empty() && std::isinf(std::strtod(text.c_str(), &end)) &&
-               end == text.c_str() + text.size() && text.find_first_of("iInN") == std::string::npos) {
+               end == text.c_str() + text.size() && text.find_first_of("iInNxXpP") == std::string::npos) {
         throw ScenarioError(ctx.file, 0, 0,
                             origin + ": the number is beyond a double's range (about +-1.8e308)");
     } else {

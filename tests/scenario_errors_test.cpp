@@ -399,6 +399,11 @@ std::vector<BadCase> cases() {
          {"--set", "scene.dt=1e999"},
          0,
          "--set scene.dt=1e999: the number is beyond a double's range (about +-1.8e308)"},
+        {"set_hex_float_is_not_toml", // strtod reads it as an infinity: not "beyond a double's range"
+         kScene,
+         {"--set", "scene.dt=0x1p2000"},
+         0,
+         "--set scene.dt=0x1p2000: the value is not one TOML value"},
         {"set_not_toml_says_what_toml_found",
          kScene,
          {"--set", "scene.dt=[1,"},
