@@ -255,10 +255,11 @@ int sweepMerge(const Sweep& s, const std::string& out) {
     if (!checkManifest(s, out)) {
         // no folder of this sweep's runs: a results.csv of empty rows written there (any folder --out
         // named, made if missing) would only mislead
-        std::fprintf(stderr,
-                     "tumble sweep: %s holds no run of this sweep (no sweep.json): nothing to merge; run it "
-                     "first (--local, --slurm or --shard)\n",
-                     out.c_str());
+        std::fprintf(
+            stderr,
+            "tumble sweep: %s holds no run of this sweep (its sweep.json is missing, or another "
+            "sweep's with no result): nothing to merge; run it first (--local, --slurm or --shard)\n",
+            out.c_str());
         return kExitFailure;
     }
     const std::size_t missing = mergeResults(s, out);
