@@ -2,6 +2,7 @@
 
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
+#include "engine/json.h"
 #include "engine/name.h"
 #include "engine/parallel.h"
 #include "engine/random.h"
@@ -16,7 +17,6 @@
 #include "systems/spring_integrators.h"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -562,14 +562,6 @@ std::optional<std::string> needsVector(const World&, Entity, const EventDef& ev)
     return std::nullopt;
 }
 
-/// A number as it was written, the shortest text that reads back as it (-1, 2.5, 2.0000001, 7), where
-/// std::to_string gave -1.000000.
-std::string asWritten(double d) {
-    char text[32];
-    const auto end = std::to_chars(text, text + sizeof text, d).ptr;
-    return std::string(text, end);
-}
-
 std::optional<std::string> needsIndices(const World& world, Entity e, const EventDef& ev) {
     const std::size_t n = world.get<SpringNetwork>(e).x.size();
     if (ev.value.empty()) {
@@ -577,8 +569,9 @@ std::optional<std::string> needsIndices(const World& world, Entity e, const Even
     }
     for (double d : ev.value) {
         if (d < 0 || d != std::floor(d) || d >= static_cast<double>(n)) {
-            return "mass index " + asWritten(d) + " is not a whole number in [0, " + std::to_string(n - 1) +
-                   "]";
+            std::string index; // as written, the shortest text that reads back (-1, 2.5), not -1.000000
+            appendNumber(index, d);
+            return "mass index " + index + " is not a whole number in [0, " + std::to_string(n - 1) + "]";
         }
     }
     return std::nullopt;
