@@ -69,6 +69,14 @@ toml::table* findEntityTable(toml::table& root, std::string_view name) {
     return nullptr;
 }
 
+/// Whether TOML refused a number for its size alone: strtod reads all of it as an infinity, and it is no
+/// spelling of inf or nan, nor a hex float (which TOML refuses for its form).
+bool beyondDouble(const std::string& text) {
+    char* end = nullptr;
+    return !text.empty() && std::isinf(std::strtod(text.c_str(), &end)) &&
+           end == text.c_str() + text.size() && text.find_first_of("iInNxXpP") == std::string::npos;
+}
+
 /// An override's value put at `last` in `table`: one TOML value, or a bare word taken as a string
 /// (integrator=rk4); anything else is an error, which says what TOML found wrong with it.
 void setOverrideValue(toml::table& table, const std::string& last, const std::string& text,
@@ -88,11 +96,7 @@ void setOverrideValue(toml::table& table, const std::string& last, const std::st
         parsed.get("v")->visit([&](auto&& n) { table.insert_or_assign(last, std::move(n)); });
     } else if (isBareWord(text)) {
         table.insert_or_assign(last, text);
-    } else if (char* end =
-                   nullptr; // a number TOML refused for its size: strtod reads all of it as an
-                            // infinity, and it is no spelling of inf or nan, nor a hex float (not TOML)
-               !text.empty() && std::isinf(std::strtod(text.c_str(), &end)) &&
-               end == text.c_str() + text.size() && text.find_first_of("iInNxXpP") == std::string::npos) {
+    } else if (beyondDouble(text)) {
         throw ScenarioError(ctx.file, 0, 0,
                             origin + ": the number is beyond a double's range (about +-1.8e308)");
     } else {
