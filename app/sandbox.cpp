@@ -80,16 +80,20 @@ struct Sandbox::State {
                 }
             }
         }
+        std::vector<std::string> names; // those with a state, for a did-you-mean
         for (Entity e : world.entities()) {
-            if (const Name* n = world.tryGet<Name>(e); n && n->value == name) {
+            const Name* n = world.tryGet<Name>(e);
+            if (!n) {
+                continue;
+            }
+            if (n->value == name) {
                 throw ScenarioError(path, 0, 0,
                                     "entity '" + name +
                                         "' has no state the dump lists (no positions or velocities)");
             }
-        }
-        std::vector<std::string> names;
-        for (Entity e : world.entities()) {
-            if (const Name* n = world.tryGet<Name>(e)) {
+            const auto& states = sim->catalog().states();
+            if (std::any_of(states.begin(), states.end(),
+                            [&](const StateCodec& codec) { return codec.has(world, e); })) {
                 names.push_back(n->value);
             }
         }

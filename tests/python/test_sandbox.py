@@ -305,6 +305,10 @@ def test_a_misspelt_entity_is_given_the_nearest_name():
     for read in (sim.x, sim.v):
         with pytest.raises(tumble.ScenarioError, match=r"no entity 'chian' in the scene \(did you mean 'chain'\?\)"):
             read("chian")
+    # and only names with a state are suggested: the curtain's wind has none (it suggested 'wind')
+    with pytest.raises(tumble.ScenarioError) as raised:
+        tumble.Sandbox("curtain", threads=1).x("wnd")
+    assert "did you mean" not in str(raised.value)
 
 
 def test_a_blow_up_while_stepping_is_warned_of_once():
