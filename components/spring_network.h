@@ -85,6 +85,7 @@ struct SpringNetwork {
     std::vector<SpringLink> links;
     std::vector<SpringAnchor> anchors; ///< masses held by rigid bodies (set by [[joint]] type "anchor")
     double drag = 0.0;                 ///< N s/m, global -drag v on every mass
+    double volumePerKg = 0.0; ///< m^3 of the body a kg of its masses stands for (water's lift); 0: points
     Integrator integrator = Integrator::SymplecticEuler;
     double thickness = 0.0;            ///< m, kept between masses and collider surfaces
     double friction = 0.5;             ///< Coulomb coefficient against colliders (and itself)
@@ -103,6 +104,12 @@ struct SpringNetwork {
     // set by the collision pass with bodies, read by implicit Euler's next step (derived from x and v: not
     // hashed, the same on every run that reaches the same state)
     std::vector<RestingContact> resting;
+
+    // set by the water (systems/water_system.h), added to v at the start of the next step: the water's
+    // push on each mass (empty when no mass is in water). Held over rather than added at once so that the
+    // velocities a step ends with are the motion, not half a step of forces ahead of it (a mass floating at
+    // rest would show the lift of the next step)
+    std::vector<Vec3> waterKick;
 
     // set when the network blew up: it is no longer advanced
     bool frozen = false;

@@ -23,6 +23,7 @@
 #include <exception>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <span>
 #include <string>
@@ -209,6 +210,8 @@ void loadRope(TableReader& r, World& world, Entity entity, const SceneDef&) {
         "'first', 'both', 'none'");
     SpringNetwork net = buildRope(def);
     readCommon(r, net, "implicit_euler");
+    // in water, a strand as thick as its thickness (its radius: the distance it keeps from surfaces)
+    net.volumePerKg = std::numbers::pi * net.thickness * net.thickness * def.length / def.mass;
     attach(r, world, entity, std::move(net));
 }
 
@@ -256,6 +259,7 @@ void loadCloth(TableReader& r, World& world, Entity entity, const SceneDef& scen
         }
     }
     readCommon(r, net, "implicit_euler");
+    net.volumePerKg = def.size[0] * def.size[1] * net.thickness / def.mass; // in water, a sheet that thick
     net.selfCollision = selfCollision;
     if (selfCollision && net.thickness <= 0.0) {
         r.fail("thickness",
@@ -305,6 +309,7 @@ void loadSoftBody(TableReader& r, World& world, Entity entity, const SceneDef&) 
         "'none'");
     SpringNetwork net = buildSoftBody(def);
     readCommon(r, net, "implicit_euler");
+    net.volumePerKg = def.size[0] * def.size[1] * def.size[2] / def.mass; // in water, the box it fills
     attach(r, world, entity, std::move(net));
 }
 
@@ -481,6 +486,7 @@ void loadFem(TableReader& r, World& world, Entity entity, const SceneDef& scene)
     // an fem body is advanced by these two alone (the integrator's error lists just them)
     constexpr std::string_view kFemIntegrators[] = {"implicit_euler", "symplectic_euler"};
     readCommon(r, net, "implicit_euler", kFemIntegrators);
+    net.volumePerKg = 1.0 / material.density;
     if (net.doublePrecisionSolve) {
         r.fail("solver_precision", "an fem body solves in float: leave out 'solver_precision'");
     }
@@ -545,6 +551,9 @@ void hashNetwork(const SpringNetwork& net, Hasher& h) {
     // (which a replay carries) stands for them; hashing them every frame was 70% of the curtain's hash
     h.add(net.x);
     h.add(net.v);
+    if (!net.waterKick.empty()) { // (none out of water: the bits of a scene without water are as before)
+        h.add(net.waterKick);
+    }
     h.add(net.invMass);
     h.add(net.pinned);
     h.add(net.drag);
@@ -946,6 +955,7 @@ void patchNetwork(World& w, Entity e, const World& bw, Entity b, const World& aw
     takeChanged(net.fem.stiffnessDamping, was.fem.stiffnessDamping, now.fem.stiffnessDamping);
     takeChanged(net.fem.massDamping, was.fem.massDamping, now.fem.massDamping);
     takeChanged(net.drag, was.drag, now.drag);
+    takeChanged(net.volumePerKg, was.volumePerKg, now.volumePerKg);
     takeChanged(net.integrator, was.integrator, now.integrator);
     takeChanged(net.thickness, was.thickness, now.thickness);
     takeChanged(net.friction, was.friction, now.friction);

@@ -2,6 +2,7 @@
 
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
+#include "components/spring_network.h"
 #include "engine/name.h"
 #include "engine/parallel.h"
 #include "engine/profiler.h"
@@ -21,6 +22,7 @@ namespace tumble {
 namespace {
 
 constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of the CFL limit at most
+constexpr double kFaceDrag = 1.05; ///< the drag coefficient of a cube face on (a mass in water: coupleMasses)
 constexpr int kMaxNodes = 2048;    ///< per side
 constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22; ///< all surfaces: 4M (2048 x 2048)
 constexpr double kMaxNodeStepsPerStep = 1e8;                    ///< wave-step node updates in one fixed step
@@ -410,6 +412,109 @@ double nodeShare(const Water& w, int i, int k) {
     return (i == 0 || i == w.nx - 1 ? 0.5 : 1.0) * (k == 0 || k == w.nz - 1 ? 0.5 : 1.0);
 }
 
+/// Keeps the ambient surface from the first time anything reaches over the water: so far every wave is the
+/// ambient's (nothing has dented it).
+void startAmbient(Water& w) {
+    if (!w.ambient.empty()) {
+        return;
+    }
+    w.ambient = w.h;
+    w.ambientV = w.v;
+    w.ambientStill = std::all_of(w.h.begin(), w.h.end(), [](double x) { return x == 0.0; }) &&
+                     std::all_of(w.v.begin(), w.v.end(), [](double x) { return x == 0.0; }) &&
+                     w.maker.edge < 0;
+}
+
+/// The ambient surface's world height at (x, z), bilinear between the four nodes round it, and its slope
+/// (d/dx, 0, d/dz).
+double ambientAt(const Water& w, const Corners& c, Vec3& slope) {
+    const double* a = w.ambient.data();
+    const double a00 = a[c.n00], a10 = a[c.n00 + 1], a01 = a[c.n01], a11 = a[c.n01 + 1];
+    slope = Vec3{((a10 - a00) * (1.0 - c.fz) + (a11 - a01) * c.fz) / w.dx(), 0.0,
+                 ((a01 - a00) * (1.0 - c.fx) + (a11 - a10) * c.fx) / w.dz()};
+    return w.centre.y + (a00 * (1.0 - c.fx) + a10 * c.fx) * (1.0 - c.fz) +
+           (a01 * (1.0 - c.fx) + a11 * c.fx) * c.fz;
+}
+
+/// Adds a height (a volume over a node's cell) to the four nodes round a point, by their bilinear shares.
+void spread(std::vector<double>& field, const Corners& c, double height) {
+    field[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz);
+    field[c.n00 + 1] += height * c.fx * (1.0 - c.fz);
+    field[c.n01] += height * (1.0 - c.fx) * c.fz;
+    field[c.n01 + 1] += height * c.fx * c.fz;
+}
+
+/// Buoyancy, drag and displacement between one water surface and a spring network's masses (cloth, ropes,
+/// soft bodies, fem bodies), mass by mass; returns whether any mass displaces water.
+///
+/// Each mass stands for a cube of its share of the network's volume (SpringNetwork::volumePerKg: a cloth's
+/// sheet and a rope's strand are as thick as their `thickness`), upright about it; the part of that cube
+/// between the pool's floor and the ambient surface (as for bodies: a network does not float on its own
+/// dent) is lifted by the weight of its water, with the response to the mass's own heave implicit in its
+/// waterline's stiffness, rho g times the cube's face (so a cloth of a tenth of the water's density lies on
+/// the surface at any step rather than bouncing off it); the surface's slope carries it, and the water's
+/// drag slows it (the exact decay of the step, in proportion to the part under water). What it displaces
+/// leaves the nodes round it, as a body's does. A network of point masses (volume zero) takes the drag
+/// alone. Pinned masses are held where they are and take nothing.
+bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) {
+    const double area = w.dx() * w.dz();
+    const double g = std::max(0.0, -gravity.y);
+    const double floor = w.centre.y - w.depth;
+    const double spanX = w.nodeX(w.nx - 1), spanZ = w.nodeZ(w.nz - 1);
+    bool touched = false;
+    for (std::size_t i = 0; i < net.x.size(); ++i) {
+        const Vec3& p = net.x[i];
+        if (net.pinned[i] || net.invMass[i] <= 0.0 || !(p.x >= w.nodeX(0) && p.x <= spanX) ||
+            !(p.z >= w.nodeZ(0) && p.z <= spanZ) || p.y < floor) {
+            continue;
+        }
+        startAmbient(w);
+        const Corners c = cornersAt(w, p.x, p.z);
+        Vec3 slope;
+        const double surface = ambientAt(w, c, slope);
+        const double m = 1.0 / net.invMass[i];
+        const double volume = net.volumePerKg * m;
+        const double side = std::cbrt(volume);
+        // the part of the cube under water (a point: all of it or none)
+        const double bottom = std::max(p.y - 0.5 * side, floor), top = p.y + 0.5 * side;
+        const double under = side > 0.0 ? std::clamp((std::min(surface, top) - bottom) / side, 0.0, 1.0)
+                                        : (p.y < surface ? 1.0 : 0.0);
+        if (under <= 0.0) {
+            continue;
+        }
+        const double displaced = volume * under;
+        const Vec3 lift = gravity * (-w.density * displaced);
+        // the velocity the mass would end the next step with under gravity and the water alone (the springs'
+        // step adds gravity itself: the kick is the rest). Heave implicit in the waterline's stiffness
+        // k = rho g side^2 while the cube crosses the surface, m (v' - v) = dt (m g + lift - k dt v')
+        const Vec3 was = net.v[i];
+        Vec3 v = was + (gravity + (slope * (-w.density * g * displaced) + lift) * (1.0 / m)) * dt;
+        const double k = top > surface && p.y - 0.5 * side < surface ? w.density * g * side * side : 0.0;
+        v.y = (m * (was.y + dt * gravity.y) + dt * lift.y) / (m + k * dt * dt);
+        // the water's resistance to the cube's face, 1/2 rho Cd side^2 |v'| v' on its part under water,
+        // implicit in the speed s = |v'| it ends with: v' (1 + dt c s) = v, so dt c s^2 + s = |v| with c
+        // `resist` (it slows a mass to rest at most, never back): what sets the speed a mass sinks or rises
+        // at; then the water's `drag`, as for bodies. (Without it and the implicit heave, a cloth of a
+        // fiftieth of water's density dropped from 2 m was thrown 1.2 m back off the surface by the whole
+        // lift of the masses a step took under; without the heave alone it never came to rest)
+        const double resist = 0.5 * w.density * kFaceDrag * side * side * under / m, speed = length(v);
+        if (resist > 0.0 && speed > 0.0) {
+            const double ends = 2.0 * speed / (1.0 + std::sqrt(1.0 + 4.0 * dt * resist * speed));
+            v = v * (ends / speed);
+        }
+        v = v * std::exp(-w.bodyDrag * under * dt);
+        if (net.waterKick.empty()) {
+            net.waterKick.assign(net.x.size(), Vec3{});
+        }
+        net.waterKick[i] += v - was - gravity * dt;
+        if (displaced > 0.0) {
+            spread(w.occupying, c, displaced / area);
+            touched = true;
+        }
+    }
+    return touched;
+}
+
 /// Buoyancy, drag and displacement between one water surface and the moving bodies in it.
 ///
 /// Bodies float on the ambient surface (the waves they did not make), so that their own dent never lifts
@@ -450,14 +555,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         if (i0 > i1 || k0 > k1) {
             return; // not over the water
         }
-        if (w.ambient.empty()) {
-            // the first body over this water: so far every wave is the ambient's (no body has dented it)
-            w.ambient = w.h;
-            w.ambientV = w.v;
-            w.ambientStill = std::all_of(w.h.begin(), w.h.end(), [](double x) { return x == 0.0; }) &&
-                             std::all_of(w.v.begin(), w.v.end(), [](double x) { return x == 0.0; }) &&
-                             w.maker.edge < 0;
-        }
+        startAmbient(w);
         // the body's columns on a grid of its own over its box in the world (exact for an upright box), at
         // least kColumnsAcross a side and two a water cell, so that the footprint does not depend on where
         // the body sits on the water's grid (sampled at the nodes, a cube between them settled tilted and a
@@ -487,10 +585,8 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                 }
                 // the ambient surface there, bilinear between the four nodes round it, and its slope
                 const Corners c = cornersAt(w, x, z);
-                const double* a = w.ambient.data();
-                const double a00 = a[c.n00], a10 = a[c.n00 + 1], a01 = a[c.n01], a11 = a[c.n01 + 1];
-                const double surface = w.centre.y + (a00 * (1.0 - c.fx) + a10 * c.fx) * (1.0 - c.fz) +
-                                       (a01 * (1.0 - c.fx) + a11 * c.fx) * c.fz;
+                Vec3 columnSlope;
+                const double surface = ambientAt(w, c, columnSlope);
                 // the part in the water: between the pool's floor and the surface
                 const double low = std::max(bottom, floor);
                 const double depth = std::min(surface, top) - low;
@@ -500,9 +596,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                 const double displaced = depth * column;
                 volume += displaced;
                 centre += Vec3{x, low + 0.5 * depth, z} * displaced;
-                slope += Vec3{((a10 - a00) * (1.0 - c.fz) + (a11 - a01) * c.fz) / w.dx(), 0.0,
-                              ((a01 - a00) * (1.0 - c.fx) + (a11 - a10) * c.fx) / w.dz()} *
-                         displaced;
+                slope += columnSlope * displaced;
                 if (top > surface) { // the column crosses the surface: part of the waterline
                     const double rx = x - b.position.x, rz = z - b.position.z;
                     waterline += column;
@@ -510,11 +604,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
                     waterlineMomentZ += column * rz * rz;
                 }
                 // the water it displaces leaves the four nodes round it, as heights over their cells
-                const double height = displaced / area;
-                now[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz);
-                now[c.n00 + 1] += height * c.fx * (1.0 - c.fz);
-                now[c.n01] += height * (1.0 - c.fx) * c.fz;
-                now[c.n01 + 1] += height * c.fx * c.fz;
+                spread(now, c, displaced / area);
                 touched = true;
             }
         }
@@ -580,6 +670,11 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
             b.angularImpulse += slab.angularImpulse.z;
         }
     }
+    world.view<SpringNetwork>().each([&](Entity, SpringNetwork& net) {
+        if (!net.frozen && coupleMasses(w, net, gravity, dt)) {
+            touched = true;
+        }
+    });
     // the water a body pushes aside as it sinks in leaves the nodes under it and raises the free surface
     // everywhere else by as much in all (and flows back as the body rises): the volume (the nodes' shares
     // of their heights) is kept, and the dent under the body makes the waves

@@ -12,9 +12,11 @@
 // lifted by the weight of the water it displaces (buoyancy and the righting torque), the response to its
 // own motion implicit in the waterline's stiffness (stable at any density ratio); the surface's slope carries
 // it; the water it pushes aside leaves the nodes under it and raises the rest (the volume kept), making its
-// waves. 2D bodies float as the slabs they are drawn as (systems/collision_system.h slabOf). System: reads
-// Transform; writes Water and the impulses on RigidBody and RigidBody2D. Phase: fixed, after the rigid
-// bridges.
+// waves. 2D bodies float as the slabs they are drawn as (systems/collision_system.h slabOf). Spring
+// networks (cloth, ropes, soft bodies, fem bodies) float mass by mass, each the cube of its share of the
+// network's volume, with the same lift, heave, slope, drag and displacement. System: reads Transform; writes
+// Water, the impulses on RigidBody and RigidBody2D, and SpringNetwork velocities. Phase: fixed, after the
+// rigid bridges.
 
 #include "components/water.h"
 #include "engine/catalog.h"

@@ -4,6 +4,7 @@
 
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
+#include "components/spring_network.h"
 #include "components/water.h"
 #include "engine/run_report.h"
 #include "tests/test_support.h"
@@ -415,6 +416,114 @@ TEST(Water, A2DPolygonGivenAwayFromItsOriginFloatsAsTheSameSquare) {
     const RigidBody2D& log = test::component<RigidBody2D>(*sim, "log");
     EXPECT_LT(std::abs(log.angle), 0.02);
     EXPECT_NEAR(-log.position[1], 0.15 * 0.6, 0.05 * 0.15 * 0.6) << "its bottom (the origin) at the draft";
+}
+
+// Spring networks in water (systems/water_system.cpp coupleMasses): each mass the cube of its share of the
+// network's volume, lifted by the water it displaces, slowed by 1/2 rho Cd side^2 v^2 (Cd = 1.05, a cube face
+// on) and by the water's `drag`, and displacing the surface.
+
+/// The water the bodies in it displace, m^3: the nodes' occupied heights times their shares of their cells.
+double displacedVolume(const Water& w) {
+    double v = 0.0;
+    for (int k = 0; k < w.nz; ++k) {
+        for (int i = 0; i < w.nx; ++i) {
+            const double share =
+                (i == 0 || i == w.nx - 1 ? 0.5 : 1.0) * (k == 0 || k == w.nz - 1 ? 0.5 : 1.0);
+            v += share * w.occupied[std::size_t(k) * w.nx + i];
+        }
+    }
+    return v * w.dx() * w.dz();
+}
+
+class FloatingNetwork : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(FloatingNetwork, ALightOneFloatsOnItsOwnWeightOfWaterAndMakesWaves) {
+    // a flat raft 0.6 x 0.3 x 0.6 m of density 400 (43.2 kg), as a soft body or an fem body, dropped in: at
+    // rest it displaces its own weight of water, 0.0432 m^3 (Archimedes), the water it pushes aside makes
+    // waves and the pool's volume is kept. (Caught: the water's push held over without the gravity the
+    // springs' step adds taken out of it, which floated the raft on twice its weight, 0.0864 m^3.)
+    const std::string kind = GetParam();
+    const double mass = 400.0 * 0.6 * 0.3 * 0.6;
+    const std::string body =
+        kind == "softbody" ? "[entity.softbody]\nsize = [0.6, 0.3, 0.6]\nresolution = [5, 3, 5]\nmass = " +
+                                 std::to_string(mass) + "\nstiffness = 2.0e5\ndamping = 20.0\n"
+                           : "[entity.fem]\nmesh = \"box\"\nsize = [0.6, 0.3, 0.6]\nresolution = [4, 2, 4]\n"
+                             "young = 1.0e6\ndensity = 400.0\n";
+    auto sim = test::makeSimulation(pool(
+        1.0 / 60.0, "cells = [61, 61]\nsize = [4.0, 4.0]\ndepth = 1.0\nwave_speed = 1.5\ndamping = 0.5\n",
+        "[[entity]]\nname = \"raft\"\n[entity.transform]\nposition = [0.1, 0.3, -0.2]\n" + body));
+    const Water& w = test::component<Water>(*sim, "pond");
+    double worst = 0.0, waves = 0.0;
+    for (int f = 0; f < 600; ++f) {
+        sim->runFrame();
+        worst = std::max(worst, std::abs(volumeAboveRest(w)));
+        const auto [low, high] = std::minmax_element(w.h.begin(), w.h.end());
+        waves = std::max(waves, *high - *low);
+    }
+    EXPECT_NEAR(displacedVolume(w), mass / 1000.0, 0.02 * mass / 1000.0);
+    const SpringNetwork& raft = test::component<SpringNetwork>(*sim, "raft");
+    double fastest = 0.0;
+    for (const Vec3& v : raft.v) {
+        fastest = std::max(fastest, length(v));
+    }
+    EXPECT_LT(fastest, 0.01) << "at rest";
+    EXPECT_GT(waves, 0.05) << "the water it pushed aside as it fell in made waves";
+    EXPECT_LT(worst, 1e-6 * 4.0 * 4.0 * 1.0) << "the water's volume is kept";
+}
+
+INSTANTIATE_TEST_SUITE_P(Water, FloatingNetwork, ::testing::Values("softbody", "fem"));
+
+TEST(Water, ADenseRopeSinksAtTheSpeedItsWeightAndTheWatersResistanceBalanceAt) {
+    // two masses of 0.5 kg, each a cube of half a strand 0.2 m long and 0.02 m thick (pi 0.02^2 0.2 / 2 m^3):
+    // sinking, (m - rho V) g = 1/2 rho Cd s^2 v^2 with s the cube's side and the water's `drag` 0, so
+    // v = sqrt(2 (m - rho V) g / (rho Cd s^2)), 1.67 m/s. (Caught: without the face's resistance it fell
+    // ever faster, 16 m/s after 2 s.)
+    auto sim = test::makeSimulation(
+        pool(1.0 / 60.0, "cells = [21, 21]\nsize = [4.0, 4.0]\ndepth = 20.0\nwave_speed = 1.0\ndrag = 0.0\n",
+             "[[entity]]\nname = \"rope\"\n[entity.transform]\nposition = [-0.1, 0.2, 0.0]\n[entity.rope]\n"
+             "segments = 1\nlength = 0.2\ndirection = [1.0, 0.0, 0.0]\nmass = 1.0\nthickness = 0.02\n"
+             "pin = \"none\"\n"));
+    for (int f = 0; f < 120; ++f) {
+        sim->runFrame();
+    }
+    const double m = 0.5, volume = std::numbers::pi * 0.02 * 0.02 * 0.2 / 2.0, side = std::cbrt(volume);
+    const double expected = std::sqrt(2.0 * (m - 1000.0 * volume) * 9.81 / (1000.0 * 1.05 * side * side));
+    const SpringNetwork& rope = test::component<SpringNetwork>(*sim, "rope");
+    for (const Vec3& v : rope.v) {
+        EXPECT_NEAR(-v.y, expected, 0.01 * expected);
+    }
+    EXPECT_LT(rope.x[0].y, -2.0) << "well under water";
+}
+
+TEST(Water, ALightClothDroppedOnTheWaterLiesOnItAndIsNotThrownOff) {
+    // 1 m^2 of 0.2 kg cloth 0.01 m thick (20 kg/m^3) dropped flat from 2 m: it stops on the water and comes
+    // to rest on it, no higher than the top of its masses' cubes. (Caught: the heave taken explicitly, k =
+    // 0, left it jittering at up to 0.08 m/s; without the face's resistance too, the lift of the masses a
+    // step took wholly under water threw it 1.2 m back up.)
+    auto sim = test::makeSimulation(pool(
+        1.0 / 60.0, "cells = [41, 41]\nsize = [3.0, 3.0]\ndepth = 1.0\nwave_speed = 1.5\ndamping = 0.5\n",
+        "[[entity]]\nname = \"sheet\"\n[entity.transform]\nposition = [0.0, 2.0, 0.0]\n[entity.cloth]\n"
+        "rows = 11\ncols = 11\nsize = [1.0, 1.0]\nplane = \"xz\"\nmass = 0.2\npin = \"none\"\n"));
+    const SpringNetwork& sheet = test::component<SpringNetwork>(*sim, "sheet");
+    const double side = std::cbrt(1.0 * 1.0 * 0.01 / 121.0);
+    bool wet = false;
+    double highest = -1e9;
+    for (int f = 0; f < 300; ++f) {
+        sim->runFrame();
+        for (const Vec3& x : sheet.x) {
+            wet = wet || x.y < 0.5 * side;
+            if (wet) {
+                highest = std::max(highest, x.y);
+            }
+        }
+    }
+    ASSERT_TRUE(wet);
+    EXPECT_LT(highest, 0.05) << "bounced off the water";
+    for (std::size_t i = 0; i < sheet.x.size(); ++i) {
+        EXPECT_GT(sheet.x[i].y, 0.0) << "mass " << i << " floats";
+        EXPECT_LT(sheet.x[i].y, 0.5 * side) << "mass " << i;
+        EXPECT_LT(length(sheet.v[i]), 0.01) << "mass " << i << " at rest";
+    }
 }
 
 } // namespace
