@@ -105,11 +105,11 @@ struct SpringNetwork {
     // hashed, the same on every run that reaches the same state)
     std::vector<RestingContact> resting;
 
-    // set by the water (systems/water_system.h), added to v at the start of the next step: the water's
-    // push on each mass (empty when no mass is in water). Held over rather than added at once so that the
-    // velocities a step ends with are the motion, not half a step of forces ahead of it (a mass floating at
-    // rest would show the lift of the next step)
-    std::vector<Vec3> waterKick;
+    // N, set by the water at the end of a step (systems/water_system.h): its push on each mass through the
+    // next step, which externalForces adds to the others (empty when no mass is in water). A force rather
+    // than a change of velocity made at once, so that the velocities a step ends with are the motion (a
+    // mass floating at rest shows none) and a contact holding a mass holds the water's push with its weight
+    std::vector<Vec3> waterForce;
 
     // set when the network blew up: it is no longer advanced
     bool frozen = false;

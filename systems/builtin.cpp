@@ -66,7 +66,7 @@ const std::vector<SystemEntry>& builtinSystems() {
          accessOf<Reads<RigidBody2D, Transform>, Writes<SpringNetwork, ParticleEmitter>>()},
         {"water", Phase::Fixed, stepWater,
          accessOf<Reads<SceneDef, Name, Transform>,
-                  Writes<Water, RigidBody, RigidBody2D, SpringNetwork, RunReport>>()},
+                  Writes<Water, RigidBody, RigidBody2D, SpringNetwork, ParticleEmitter, RunReport>>()},
         {"air", Phase::Fixed, advanceAir,
          accessOf<Reads<SceneDef, Transform, AirSource, RigidBody, Name>, Writes<Air, RunReport>>()},
         {"render", Phase::Frame, renderWorld,

@@ -119,6 +119,9 @@ void externalForces(const SpringNetwork& net, const Environment& env, const std:
     pool.forEach(n, kMassGrain, [&](std::size_t i) {
         const double m = 1.0 / net.invMass[i];
         Vec3 fi = env.gravity * m - v[i] * net.drag;
+        if (!net.waterForce.empty()) {
+            fi += net.waterForce[i];
+        }
         if (pointFields) {
             for (const ForceField& field : *env.fields) {
                 if (!(surface && field.kind == FieldKind::Wind)) {

@@ -210,12 +210,6 @@ void stepSprings(SpringNetwork& net, SpringWorkspace& work, const Environment& e
 } // namespace
 
 void stepNetwork(SpringNetwork& net, SpringWorkspace& work, const Environment& env, double h) {
-    if (!net.waterKick.empty()) { // the water's push, held over from the end of the last step
-        for (std::size_t i = 0; i < net.v.size(); ++i) {
-            net.v[i] += net.waterKick[i];
-        }
-        net.waterKick.clear();
-    }
     if (net.kind == NetworkKind::Fem) {
         work.lastSolve = stepFem(net, work.fem, work.f, work.incidence, env, h);
     } else {

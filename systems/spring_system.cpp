@@ -551,8 +551,8 @@ void hashNetwork(const SpringNetwork& net, Hasher& h) {
     // (which a replay carries) stands for them; hashing them every frame was 70% of the curtain's hash
     h.add(net.x);
     h.add(net.v);
-    if (!net.waterKick.empty()) { // (none out of water: the bits of a scene without water are as before)
-        h.add(net.waterKick);
+    if (!net.waterForce.empty()) { // (none out of water: the bits of a scene without water are as before)
+        h.add(net.waterForce);
     }
     h.add(net.invMass);
     h.add(net.pinned);
@@ -740,6 +740,9 @@ void pullAnchors(World& world, SpringNetwork& net, const SpringWorkspace& work, 
         net.v[a.mass] = h.velocity;
         net.x[a.mass] = h.at + h.velocity * dt;
         Vec3 f = env.gravity * (1.0 / net.invMass[a.mass]);
+        if (!net.waterForce.empty()) {
+            f += net.waterForce[a.mass]; // the water's lift on it
+        }
         for (const SpringLink& s : net.links) {
             if (s.a != a.mass && s.b != a.mass) {
                 continue;

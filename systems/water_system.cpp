@@ -1,5 +1,6 @@
 #include "systems/water_system.h"
 
+#include "components/particles.h"
 #include "components/rigid_body.h"
 #include "components/rigid_body_2d.h"
 #include "components/spring_network.h"
@@ -23,7 +24,8 @@ namespace {
 
 constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of the CFL limit at most
 constexpr double kFaceDrag = 1.05; ///< the drag coefficient of a cube face on (a mass in water: coupleMasses)
-constexpr int kMaxNodes = 2048;    ///< per side
+constexpr std::size_t kAbsorbGrain = 8192; ///< particles a chunk of absorbParticles' search
+constexpr int kMaxNodes = 2048;            ///< per side
 constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22; ///< all surfaces: 4M (2048 x 2048)
 constexpr double kMaxNodeStepsPerStep = 1e8;                    ///< wave-step node updates in one fixed step
 constexpr double kCellsPerWave = 8.0;  ///< the shortest wave a maker may make, in cells (the grid carries it)
@@ -444,6 +446,29 @@ void spread(std::vector<double>& field, const Corners& c, double height) {
     field[c.n01 + 1] += height * c.fx * c.fz;
 }
 
+/// The velocity a mass in water would end the next step with under gravity and the water alone, from v: the
+/// push (lift and slope) with the heave implicit in the waterline's stiffness k = rho g side^2 while its cube
+/// crosses the surface (`crossing`), m (v' - v) = dt (m g + push - k dt v'); then the water's resistance
+/// to the cube's face, 1/2 rho Cd side^2 |v'| v' on its part under water, implicit in the speed s = |v'| it
+/// ends with: v' (1 + dt c s) = v, so dt c s^2 + s = |v| with c `resist` (it slows a mass to rest at most,
+/// never back), what sets the speed a mass sinks or rises at; then the water's `drag`, as for bodies.
+/// (Without the face's resistance and the implicit heave, a cloth of a fiftieth of water's density dropped
+/// from 2 m was thrown 1.2 m back off the surface by the whole lift of the masses a step took under;
+/// without the heave alone it never came to rest.)
+Vec3 endVelocity(const Water& w, const Vec3& v0, const Vec3& push, const Vec3& gravity, double side,
+                 double under, double m, bool crossing, double dt) {
+    const double g = std::max(0.0, -gravity.y);
+    Vec3 v = v0 + (gravity + push * (1.0 / m)) * dt;
+    const double k = crossing ? w.density * g * side * side : 0.0;
+    v.y = (m * (v0.y + dt * gravity.y) + dt * push.y) / (m + k * dt * dt);
+    const double resist = 0.5 * w.density * kFaceDrag * side * side * under / m, speed = length(v);
+    if (resist > 0.0 && speed > 0.0) {
+        const double ends = 2.0 * speed / (1.0 + std::sqrt(1.0 + 4.0 * dt * resist * speed));
+        v = v * (ends / speed);
+    }
+    return v * std::exp(-w.bodyDrag * under * dt);
+}
+
 /// Buoyancy, drag and displacement between one water surface and a spring network's masses (cloth, ropes,
 /// soft bodies, fem bodies), mass by mass; returns whether any mass displaces water.
 ///
@@ -455,7 +480,9 @@ void spread(std::vector<double>& field, const Corners& c, double height) {
 /// the surface at any step rather than bouncing off it); the surface's slope carries it, and the water's
 /// drag slows it (the exact decay of the step, in proportion to the part under water). What it displaces
 /// leaves the nodes round it, as a body's does. A network of point masses (volume zero) takes the drag
-/// alone. Pinned masses are held where they are and take nothing.
+/// alone. The push goes to the next step as a force (SpringNetwork::waterForce): the velocity change
+/// endVelocity works out, less the gravity the step adds itself; a held mass (pinned, or anchored to a
+/// body, which takes it) gets the lift alone.
 bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) {
     const double area = w.dx() * w.dz();
     const double g = std::max(0.0, -gravity.y);
@@ -464,7 +491,7 @@ bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) 
     bool touched = false;
     for (std::size_t i = 0; i < net.x.size(); ++i) {
         const Vec3& p = net.x[i];
-        if (net.pinned[i] || net.invMass[i] <= 0.0 || !(p.x >= w.nodeX(0) && p.x <= spanX) ||
+        if (net.invMass[i] <= 0.0 || !(p.x >= w.nodeX(0) && p.x <= spanX) ||
             !(p.z >= w.nodeZ(0) && p.z <= spanZ) || p.y < floor) {
             continue;
         }
@@ -484,29 +511,17 @@ bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) 
         }
         const double displaced = volume * under;
         const Vec3 lift = gravity * (-w.density * displaced);
-        // the velocity the mass would end the next step with under gravity and the water alone (the springs'
-        // step adds gravity itself: the kick is the rest). Heave implicit in the waterline's stiffness
-        // k = rho g side^2 while the cube crosses the surface, m (v' - v) = dt (m g + lift - k dt v')
-        const Vec3 was = net.v[i];
-        Vec3 v = was + (gravity + (slope * (-w.density * g * displaced) + lift) * (1.0 / m)) * dt;
-        const double k = top > surface && p.y - 0.5 * side < surface ? w.density * g * side * side : 0.0;
-        v.y = (m * (was.y + dt * gravity.y) + dt * lift.y) / (m + k * dt * dt);
-        // the water's resistance to the cube's face, 1/2 rho Cd side^2 |v'| v' on its part under water,
-        // implicit in the speed s = |v'| it ends with: v' (1 + dt c s) = v, so dt c s^2 + s = |v| with c
-        // `resist` (it slows a mass to rest at most, never back): what sets the speed a mass sinks or rises
-        // at; then the water's `drag`, as for bodies. (Without it and the implicit heave, a cloth of a
-        // fiftieth of water's density dropped from 2 m was thrown 1.2 m back off the surface by the whole
-        // lift of the masses a step took under; without the heave alone it never came to rest)
-        const double resist = 0.5 * w.density * kFaceDrag * side * side * under / m, speed = length(v);
-        if (resist > 0.0 && speed > 0.0) {
-            const double ends = 2.0 * speed / (1.0 + std::sqrt(1.0 + 4.0 * dt * resist * speed));
-            v = v * (ends / speed);
+        if (net.waterForce.empty()) {
+            net.waterForce.assign(net.x.size(), Vec3{});
         }
-        v = v * std::exp(-w.bodyDrag * under * dt);
-        if (net.waterKick.empty()) {
-            net.waterKick.assign(net.x.size(), Vec3{});
+        const Vec3 push = slope * (-w.density * g * displaced) + lift;
+        if (net.pinned[i]) { // held (by a pin, or an anchor that hands it to its body): the push as it is
+            net.waterForce[i] += push;
+        } else {
+            const bool crossing = top > surface && p.y - 0.5 * side < surface;
+            const Vec3 ends = endVelocity(w, net.v[i], push, gravity, side, under, m, crossing, dt);
+            net.waterForce[i] += (ends - net.v[i] - gravity * dt) * (m / dt);
         }
-        net.waterKick[i] += v - was - gravity * dt;
         if (displaced > 0.0) {
             spread(w.occupying, c, displaced / area);
             touched = true;
@@ -705,6 +720,61 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     w.occupyingZero = !wasOccupied;
 }
 
+/// Particles that collide (`collide = true`) and have come under the surface are drops the water takes in:
+/// each dies in its emitter's next update, and its volume, a ball as wide as the particle is at that point
+/// of its life, is added to the surface where it fell (over the four nodes round it, and to the ambient
+/// surface too, so that bodies rock on the rings): rain raises the pond by what falls in and rings it.
+/// Particles that do not collide pass through. The candidates (over the grid, below its highest node) are
+/// found chunk by chunk over the pool's threads and taken in in particle order: the same bits at any thread
+/// count.
+void absorbParticles(World& world, Water& w, WorkerPool& pool) {
+    if (!world.findPool<ParticleEmitter>()) {
+        return;
+    }
+    const float x0 = float(w.nodeX(0)), x1 = float(w.nodeX(w.nx - 1));
+    const float z0 = float(w.nodeZ(0)), z1 = float(w.nodeZ(w.nz - 1));
+    const float highest = float(w.centre.y + *std::max_element(w.h.begin(), w.h.end()));
+    const double area = w.dx() * w.dz();
+    std::vector<std::vector<std::uint32_t>> found;
+    world.view<ParticleEmitter>().each([&](Entity, ParticleEmitter& e) {
+        ParticlePool& p = e.pool;
+        if (!e.def.collide || p.count == 0) {
+            return;
+        }
+        found.assign(WorkerPool::chunkCount(p.count, kAbsorbGrain), {});
+        pool.forChunks(p.count, kAbsorbGrain, [&](std::size_t c, std::size_t first, std::size_t end) {
+            for (std::size_t i = first; i < end; ++i) {
+                // (a particle already dying this step, taken in or at the end of its life, is left alone)
+                if (p.py[i] < highest && p.px[i] >= x0 && p.px[i] <= x1 && p.pz[i] >= z0 && p.pz[i] <= z1 &&
+                    std::int32_t(p.deathStep[i] - p.clock) > 0) {
+                    found[c].push_back(std::uint32_t(i));
+                }
+            }
+        });
+        for (const std::vector<std::uint32_t>& chunk : found) {
+            for (const std::uint32_t i : chunk) {
+                const Corners c = cornersAt(w, p.px[i], p.pz[i]);
+                const double* h = w.h.data();
+                const double surface = w.centre.y +
+                                       (h[c.n00] * (1.0 - c.fx) + h[c.n00 + 1] * c.fx) * (1.0 - c.fz) +
+                                       (h[c.n01] * (1.0 - c.fx) + h[c.n01 + 1] * c.fx) * c.fz;
+                if (!(double(p.py[i]) < surface)) {
+                    continue;
+                }
+                const float life = std::min(1.0f, float(p.clock - p.birthStep[i]) /
+                                                      (float(p.deathStep[i] - p.birthStep[i]) + 1.0f));
+                const double across = particleSize(e.def, life);
+                const double height = std::numbers::pi / 6.0 * across * across * across / area;
+                spread(w.h, c, height);
+                if (!w.ambient.empty()) {
+                    spread(w.ambient, c, height);
+                }
+                p.deathStep[i] = p.clock; // dies in the next update, where it is
+            }
+        }
+    });
+}
+
 void dumpWater(const Water& w, JsonWriter& out) {
     out.key("h").beginArray();
     for (int k = 0; k < w.nz; ++k) {
@@ -724,6 +794,10 @@ void hashWater(const Water& w, Hasher& h) {
 } // namespace
 
 void stepWater(World& world, const StepContext& ctx) {
+    if (const Pool<Water>* waters = world.findPool<Water>(); waters && waters->size() > 0) {
+        // the water's push on spring networks' masses is this step's alone (every surface adds its own)
+        world.view<SpringNetwork>().each([](Entity, SpringNetwork& net) { net.waterForce.clear(); });
+    }
     const auto& g = world.resource<SceneDef>().gravity;
     const Vec3 gravity{g[0], g[1], g[2]};
     world.view<const Name, Water>().each([&](Entity, const Name& name, Water& w) {
@@ -741,6 +815,7 @@ void stepWater(World& world, const StepContext& ctx) {
         {
             ProfileStage stage(ctx.profiler, "water.bodies");
             couple(world, w, gravity, ctx.dt);
+            absorbParticles(world, w, poolOr(ctx.pool));
         }
         ProfileStage stage(ctx.profiler, "water.waves");
         const double step = ctx.dt / substeps;

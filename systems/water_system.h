@@ -14,9 +14,11 @@
 // it; the water it pushes aside leaves the nodes under it and raises the rest (the volume kept), making its
 // waves. 2D bodies float as the slabs they are drawn as (systems/collision_system.h slabOf). Spring
 // networks (cloth, ropes, soft bodies, fem bodies) float mass by mass, each the cube of its share of the
-// network's volume, with the same lift, heave, slope, drag and displacement. System: reads Transform; writes
-// Water, the impulses on RigidBody and RigidBody2D, and SpringNetwork velocities. Phase: fixed, after the
-// rigid bridges.
+// network's volume, with the same lift, heave, slope, drag and displacement, and the resistance of the
+// cube's face (a force on each mass through the next step). Particles that collide are
+// drops it takes in: they die where they fall in, and their volume rings the surface. System: reads
+// Transform; writes Water, the impulses on RigidBody and RigidBody2D, SpringNetwork's water force and
+// ParticleEmitter deaths. Phase: fixed, after the rigid bridges.
 
 #include "components/water.h"
 #include "engine/catalog.h"
