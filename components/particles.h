@@ -28,9 +28,10 @@ struct ParticlePool {
     std::vector<float> vx, vy, vz; ///< m/s, velocities
     // Ages are counted in the pool's own steps, not summed in float: a particle is born at `birthStep`
     // (the number of its first update) and dies in the update numbered `deathStep` (without moving), when
-    // its age, steps times dt, first reaches its lifetime. Step numbers wrap at 2^32 (compared as
-    // differences), and a life is at most 2^31 - 1 steps. The update reads `deathStep` alone and writes no
-    // age: the pool's streaming update moves 13 arrays' worth of bytes a particle, not 15.
+    // its age, steps times dt, first reaches its lifetime (or the next update, when water takes it in). Step
+    // numbers wrap at 2^32 (compared as differences), and a life is at most 2^31 - 1 steps. The update reads
+    // `deathStep` alone and writes no age: the pool's streaming update moves 13 arrays' worth of bytes a
+    // particle, not 15.
     std::vector<std::uint32_t> birthStep; ///< the pool's step at birth
     std::vector<std::uint32_t> deathStep; ///< the pool's step in whose update the particle dies
     std::uint32_t count = 0;              ///< live particles (the arrays are sized to the emitter's capacity)

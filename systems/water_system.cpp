@@ -481,8 +481,7 @@ Vec3 endVelocity(const Water& w, const Vec3& v0, const Vec3& push, const Vec3& g
 /// drag slows it (the exact decay of the step, in proportion to the part under water). What it displaces
 /// leaves the nodes round it, as a body's does. A network of point masses (volume zero) takes the drag
 /// alone. The push goes to the next step as a force (SpringNetwork::waterForce): the velocity change
-/// endVelocity works out, less the gravity the step adds itself; a held mass (pinned, or anchored to a
-/// body, which takes it) gets the lift alone.
+/// endVelocity works out, less the gravity the step adds itself (a mass anchored to a body hands it on).
 bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) {
     const double area = w.dx() * w.dz();
     const double g = std::max(0.0, -gravity.y);
@@ -514,14 +513,11 @@ bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) 
         if (net.waterForce.empty()) {
             net.waterForce.assign(net.x.size(), Vec3{});
         }
+        // (a held mass, pinned or anchored to a body, which takes it, gets the same: unpinned, it moves on)
         const Vec3 push = slope * (-w.density * g * displaced) + lift;
-        if (net.pinned[i]) { // held (by a pin, or an anchor that hands it to its body): the push as it is
-            net.waterForce[i] += push;
-        } else {
-            const bool crossing = top > surface && p.y - 0.5 * side < surface;
-            const Vec3 ends = endVelocity(w, net.v[i], push, gravity, side, under, m, crossing, dt);
-            net.waterForce[i] += (ends - net.v[i] - gravity * dt) * (m / dt);
-        }
+        const bool crossing = top > surface && p.y - 0.5 * side < surface;
+        const Vec3 ends = endVelocity(w, net.v[i], push, gravity, side, under, m, crossing, dt);
+        net.waterForce[i] += (ends - net.v[i] - gravity * dt) * (m / dt);
         if (displaced > 0.0) {
             spread(w.occupying, c, displaced / area);
             touched = true;
@@ -720,45 +716,52 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
     w.occupyingZero = !wasOccupied;
 }
 
-/// Particles that collide (`collide = true`) and have come under the surface are drops the water takes in:
-/// each dies in its emitter's next update, and its volume, a ball as wide as the particle is at that point
-/// of its life, is added to the surface where it fell (over the four nodes round it, and to the ambient
-/// surface too, so that bodies rock on the rings): rain raises the pond by what falls in and rings it.
-/// Particles that do not collide pass through. The candidates (over the grid, below its highest node) are
-/// found chunk by chunk over the pool's threads and taken in in particle order: the same bits at any thread
-/// count.
-void absorbParticles(World& world, Water& w, WorkerPool& pool) {
+/// Particles that collide (`collide = true`) and fall in through the surface this step (under it now,
+/// above it a step ago, and above the pool's floor) are drops the water takes in: each dies in its
+/// emitter's next update, and its volume, a ball as wide as the particle's size at its age, is added to the
+/// surface where it fell (over the four nodes round it, and to the ambient surface too, so that bodies rock
+/// on the rings): rain raises the pond by what falls in and rings it. A particle born under water, or that
+/// does not collide, passes through. The candidates (over the grid, below its highest node) are found chunk
+/// by chunk over the pool's threads and taken in in particle order: the same bits at any thread count.
+void absorbParticles(World& world, Water& w, double dt, WorkerPool& pool) {
     if (!world.findPool<ParticleEmitter>()) {
         return;
     }
     const float x0 = float(w.nodeX(0)), x1 = float(w.nodeX(w.nx - 1));
     const float z0 = float(w.nodeZ(0)), z1 = float(w.nodeZ(w.nz - 1));
-    const float highest = float(w.centre.y + *std::max_element(w.h.begin(), w.h.end()));
+    const float floor = float(w.centre.y - w.depth);
     const double area = w.dx() * w.dz();
-    std::vector<std::vector<std::uint32_t>> found;
+    float highest = 0.0f; // (found when an emitter has particles that collide)
+    bool measured = false;
     world.view<ParticleEmitter>().each([&](Entity, ParticleEmitter& e) {
         ParticlePool& p = e.pool;
         if (!e.def.collide || p.count == 0) {
             return;
         }
-        found.assign(WorkerPool::chunkCount(p.count, kAbsorbGrain), {});
+        if (!measured) {
+            highest = float(w.centre.y + *std::max_element(w.h.begin(), w.h.end()));
+            measured = true;
+        }
+        w.drops.resize(WorkerPool::chunkCount(p.count, kAbsorbGrain));
         pool.forChunks(p.count, kAbsorbGrain, [&](std::size_t c, std::size_t first, std::size_t end) {
+            w.drops[c].clear();
             for (std::size_t i = first; i < end; ++i) {
                 // (a particle already dying this step, taken in or at the end of its life, is left alone)
-                if (p.py[i] < highest && p.px[i] >= x0 && p.px[i] <= x1 && p.pz[i] >= z0 && p.pz[i] <= z1 &&
-                    std::int32_t(p.deathStep[i] - p.clock) > 0) {
-                    found[c].push_back(std::uint32_t(i));
+                if (p.py[i] < highest && p.py[i] > floor && p.px[i] >= x0 && p.px[i] <= x1 && p.pz[i] >= z0 &&
+                    p.pz[i] <= z1 && std::int32_t(p.deathStep[i] - p.clock) > 0) {
+                    w.drops[c].push_back(std::uint32_t(i));
                 }
             }
         });
-        for (const std::vector<std::uint32_t>& chunk : found) {
+        for (const std::vector<std::uint32_t>& chunk : w.drops) {
             for (const std::uint32_t i : chunk) {
                 const Corners c = cornersAt(w, p.px[i], p.pz[i]);
                 const double* h = w.h.data();
                 const double surface = w.centre.y +
                                        (h[c.n00] * (1.0 - c.fx) + h[c.n00 + 1] * c.fx) * (1.0 - c.fz) +
                                        (h[c.n01] * (1.0 - c.fx) + h[c.n01 + 1] * c.fx) * c.fz;
-                if (!(double(p.py[i]) < surface)) {
+                const double was = double(p.py[i]) - double(p.vy[i]) * dt; // where it was a step ago
+                if (!(double(p.py[i]) < surface && was >= surface)) {
                     continue;
                 }
                 const float life = std::min(1.0f, float(p.clock - p.birthStep[i]) /
@@ -768,8 +771,9 @@ void absorbParticles(World& world, Water& w, WorkerPool& pool) {
                 spread(w.h, c, height);
                 if (!w.ambient.empty()) {
                     spread(w.ambient, c, height);
+                    w.ambientStill = false; // its rings travel on the surface bodies float on
                 }
-                p.deathStep[i] = p.clock; // dies in the next update, where it is
+                p.deathStep[i] = p.clock; // dies in the next update
             }
         }
     });
@@ -815,7 +819,7 @@ void stepWater(World& world, const StepContext& ctx) {
         {
             ProfileStage stage(ctx.profiler, "water.bodies");
             couple(world, w, gravity, ctx.dt);
-            absorbParticles(world, w, poolOr(ctx.pool));
+            absorbParticles(world, w, ctx.dt, poolOr(ctx.pool));
         }
         ProfileStage stage(ctx.profiler, "water.waves");
         const double step = ctx.dt / substeps;

@@ -527,31 +527,38 @@ TEST(Water, ALightClothDroppedOnTheWaterLiesOnItAndIsNotThrownOff) {
     }
 }
 
-std::string dropper(bool collide) {
-    return std::string("[[entity]]\nname = \"rain\"\n[entity.transform]\nposition = [0.31, 1.0, -0.23]\n"
-                       "[entity.emitter]\nrate = 0.0\nburst = 50\nshape = \"disc\"\nradius = 0.5\n"
-                       "direction = [0.0, -1.0, 0.0]\nspread_deg = 0.0\nspeed = [1.0, 2.0]\n"
-                       "lifetime = [10.0, 10.0]\nsize = [0.04, 0.02]\ncollide = ") +
+std::string dropper(bool collide, double height) {
+    return "[[entity]]\nname = \"rain\"\n[entity.transform]\nposition = [0.31, " + std::to_string(height) +
+           ", -0.23]\n[entity.emitter]\nrate = 0.0\nburst = 50\nshape = \"disc\"\nradius = 0.5\n"
+           "direction = [0.0, -1.0, 0.0]\nspread_deg = 0.0\nspeed = [1.0, 2.0]\nlifetime = [10.0, 10.0]\n"
+           "size = [0.04, 0.02]\ncollide = " +
            (collide ? "true" : "false") + "\n";
 }
 
 TEST(Water, ParticlesThatCollideFallInAndAddTheirVolumeToThePond) {
-    // fifty drops fall into a pool from 1 m; each is taken in where it meets the surface, adding a ball of
-    // its size then (0.04 m at birth, 0.02 at the end of its 10 s life: 0.04 - 0.02 t / 10, the size a
-    // particle is drawn at) to the water, and ringing it. The reference: each drop's fall to the rest level,
-    // y = 1 - v t - g t^2 / 2 (its speed from its own velocity at the start), gives its size there. Particles
-    // that do not collide pass through and add nothing. (Caught: drops taken in at the size they were born
-    // with, 5% more water; and drops left alive under the surface.)
-    for (const bool collide : {true, false}) {
+    // fifty drops fall into a pool from 1 m, beside a floating box; each is taken in where it meets the
+    // surface, adding a ball of its size then (0.04 m at birth, 0.02 at the end of its 10 s life: 0.04 -
+    // 0.02 t / 10) to the water, and ringing it, the surface the box floats on too. The reference: each
+    // drop's fall to the rest level, y = y0 - v t - g t^2 / 2 from its state a step after its birth, gives
+    // its size there. Particles that do not collide, or that are born under water, pass through and add
+    // nothing. (Caught: drops taken in at the size they were born with, 5% more water; drops left alive
+    // under the surface; the rings left standing on the surface the box floats on, never stepped; particles
+    // born under water taken in at once.)
+    struct Case {
+        bool collide;
+        double height;
+        bool takenIn;
+    };
+    for (const Case& k : {Case{true, 1.0, true}, Case{false, 1.0, false}, Case{true, -0.5, false}}) {
         auto sim = test::makeSimulation(
             pool(1.0 / 240.0, "cells = [41, 41]\nsize = [3.0, 3.0]\ndepth = 1.0\nwave_speed = 1.5\n",
-                 dropper(collide)));
+                 dropper(k.collide, k.height) + box("crate", 0.15, 500.0, "[-1.0, 0.0, 1.0]")));
         const ParticleEmitter& rain = test::component<ParticleEmitter>(*sim, "rain");
         sim->runFrame(); // the burst is born in the first step
         ASSERT_EQ(rain.pool.count, 50u);
         double expected = 0.0;
         for (std::uint32_t i = 0; i < rain.pool.count; ++i) {
-            const double v = -rain.pool.vy[i], fall = double(rain.pool.py[i]) - 0.0, g = 9.81;
+            const double v = -rain.pool.vy[i], fall = double(rain.pool.py[i]), g = 9.81;
             const double t = (-v + std::sqrt(v * v + 2.0 * g * fall)) / g + 1.0 / 240.0; // (born a step ago)
             const double size = 0.04 - 0.02 * std::min(1.0, t / 10.0);
             expected += std::numbers::pi / 6.0 * size * size * size;
@@ -563,13 +570,16 @@ TEST(Water, ParticlesThatCollideFallInAndAddTheirVolumeToThePond) {
             const auto [low, high] = std::minmax_element(w.h.begin(), w.h.end());
             waves = std::max(waves, *high - *low);
         }
-        if (collide) {
+        if (k.takenIn) {
             EXPECT_EQ(rain.pool.count, 0u) << "every drop was taken in";
             EXPECT_NEAR(volumeAboveRest(w), expected, 0.01 * expected);
             EXPECT_GT(waves, 1e-4) << "the drops ring the surface";
+            ASSERT_FALSE(w.ambientV.empty()) << "the box floats on an ambient surface";
+            const auto [slow, fast] = std::minmax_element(w.ambientV.begin(), w.ambientV.end());
+            EXPECT_GT(*fast - *slow, 1e-4) << "the rings travel on the surface the box floats on";
         } else {
             EXPECT_EQ(rain.pool.count, 50u) << "they pass through";
-            EXPECT_EQ(volumeAboveRest(w), 0.0);
+            EXPECT_NEAR(volumeAboveRest(w), 0.0, 1e-9);
         }
     }
 }
