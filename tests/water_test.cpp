@@ -153,19 +153,24 @@ TEST(Water, AFloatingBoxSettlesAtTheDraftItsDensityPredicts) {
     EXPECT_LT(std::abs(box.linearVelocity.y), 0.01) << "settled";
 }
 
-/// The water's volume above the rest level, m^3: each node's height times its share of its cell inside the
-/// grid (a half on an edge, a quarter in a corner), the measure a reflecting pool keeps, independent of how
-/// the coupling moves it.
-double volumeAboveRest(const Water& w) {
+/// The volume a field of heights over the grid's nodes holds, m^3: each node's height times its share of its
+/// cell inside the grid (a half on an edge, a quarter in a corner).
+double volumeOf(const Water& w, const std::vector<double>& heights) {
     double v = 0.0;
     for (int k = 0; k < w.nz; ++k) {
         for (int i = 0; i < w.nx; ++i) {
             const double share =
                 (i == 0 || i == w.nx - 1 ? 0.5 : 1.0) * (k == 0 || k == w.nz - 1 ? 0.5 : 1.0);
-            v += share * w.h[std::size_t(k) * w.nx + i];
+            v += share * heights[std::size_t(k) * w.nx + i];
         }
     }
     return v * w.dx() * w.dz();
+}
+
+/// The water's volume above the rest level, the measure a reflecting pool keeps, independent of how the
+/// coupling moves it.
+double volumeAboveRest(const Water& w) {
+    return volumeOf(w, w.h);
 }
 
 /// The angle (degrees) between a body's own up axis and the world's.
@@ -423,17 +428,9 @@ TEST(Water, A2DPolygonGivenAwayFromItsOriginFloatsAsTheSameSquare) {
 // network's volume, lifted by the water it displaces, slowed by 1/2 rho Cd side^2 v^2 (Cd = 1.05, a cube face
 // on) and by the water's `drag`, and displacing the surface.
 
-/// The water the bodies in it displace, m^3: the nodes' occupied heights times their shares of their cells.
+/// The water the bodies in it displace, m^3.
 double displacedVolume(const Water& w) {
-    double v = 0.0;
-    for (int k = 0; k < w.nz; ++k) {
-        for (int i = 0; i < w.nx; ++i) {
-            const double share =
-                (i == 0 || i == w.nx - 1 ? 0.5 : 1.0) * (k == 0 || k == w.nz - 1 ? 0.5 : 1.0);
-            v += share * w.occupied[std::size_t(k) * w.nx + i];
-        }
-    }
-    return v * w.dx() * w.dz();
+    return volumeOf(w, w.occupied);
 }
 
 class FloatingNetwork : public ::testing::TestWithParam<const char*> {};
