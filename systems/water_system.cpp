@@ -513,7 +513,8 @@ bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) 
         if (net.waterForce.empty()) {
             net.waterForce.assign(net.x.size(), Vec3{});
         }
-        // (a held mass, pinned or anchored to a body, which takes it, gets the same: unpinned, it moves on)
+        // (a held mass gets the same force: an anchored one hands it to its body, and one unpinned before
+        // the next step moves off with it as a free mass would)
         const Vec3 push = slope * (-w.density * g * displaced) + lift;
         const bool crossing = top > surface && p.y - 0.5 * side < surface;
         const Vec3 ends = endVelocity(w, net.v[i], push, gravity, side, under, m, crossing, dt);
