@@ -47,9 +47,10 @@ struct Water {
     std::vector<double> occupying; ///< scratch: the same this step (kept to spare an allocation a step)
     std::vector<double> hNext;     ///< scratch: the heights a wave step writes, then swapped with h
     std::vector<std::vector<std::uint32_t>> drops; ///< scratch: particles found falling in, per chunk
-    bool anyOccupied = false;   ///< scratch: whether `occupied` holds a body's share anywhere
-    bool occupyingZero = false; ///< scratch: whether `occupying` is all zeros (no clearing needed)
-    std::uint32_t substeps = 1; ///< wave steps per fixed step (more when dt breaks the CFL limit)
+    std::vector<double> massDisplaced; ///< scratch: m^3, the water each mass of a network displaces
+    bool anyOccupied = false;          ///< scratch: whether `occupied` holds a body's share anywhere
+    bool occupyingZero = false;        ///< scratch: whether `occupying` is all zeros (no clearing needed)
+    std::uint32_t substeps = 1;        ///< wave steps per fixed step (more when dt breaks the CFL limit)
 
     double dx() const { return sizeX / double(nx - 1); }
     double dz() const { return sizeZ / double(nz - 1); }

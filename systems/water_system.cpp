@@ -25,6 +25,7 @@ namespace {
 constexpr double kCflSafety = 0.9; ///< wave steps are taken at this fraction of the CFL limit at most
 constexpr double kFaceDrag = 1.05; ///< the drag coefficient of a cube face on (a mass in water: coupleMasses)
 constexpr std::size_t kAbsorbGrain = 8192; ///< particles a chunk of absorbParticles' search
+constexpr std::size_t kMassesGrain = 1024; ///< masses a chunk of coupleMasses
 constexpr int kMaxNodes = 2048;            ///< per side
 constexpr std::size_t kMaxNodesInAScene = std::size_t(1) << 22; ///< all surfaces: 4M (2048 x 2048)
 constexpr double kMaxNodeStepsPerStep = 1e8;                    ///< wave-step node updates in one fixed step
@@ -427,15 +428,20 @@ void startAmbient(Water& w) {
                      w.maker.edge < 0;
 }
 
-/// The ambient surface's world height at (x, z), bilinear between the four nodes round it, and its slope
+/// A field of heights' world height at (x, z), bilinear between the four nodes round it, and its slope
 /// (d/dx, 0, d/dz).
-double ambientAt(const Water& w, const Corners& c, Vec3& slope) {
-    const double* a = w.ambient.data();
+double surfaceAt(const Water& w, const std::vector<double>& field, const Corners& c, Vec3& slope) {
+    const double* a = field.data();
     const double a00 = a[c.n00], a10 = a[c.n00 + 1], a01 = a[c.n01], a11 = a[c.n01 + 1];
     slope = Vec3{((a10 - a00) * (1.0 - c.fz) + (a11 - a01) * c.fz) / w.dx(), 0.0,
                  ((a01 - a00) * (1.0 - c.fx) + (a11 - a10) * c.fx) / w.dz()};
     return w.centre.y + (a00 * (1.0 - c.fx) + a10 * c.fx) * (1.0 - c.fz) +
            (a01 * (1.0 - c.fx) + a11 * c.fx) * c.fz;
+}
+
+/// The ambient surface's height and slope (surfaceAt).
+double ambientAt(const Water& w, const Corners& c, Vec3& slope) {
+    return surfaceAt(w, w.ambient, c, slope);
 }
 
 /// Adds a height (a volume over a node's cell) to the four nodes round a point, by their bilinear shares.
@@ -482,45 +488,73 @@ Vec3 endVelocity(const Water& w, const Vec3& v0, const Vec3& push, const Vec3& g
 /// leaves the nodes round it, as a body's does. A network of point masses (volume zero) takes the drag
 /// alone. The push goes to the next step as a force (SpringNetwork::waterForce): the velocity change
 /// endVelocity works out, less the gravity the step adds itself (a mass anchored to a body hands it on).
-bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) {
+bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt, WorkerPool& pool) {
     const double area = w.dx() * w.dz();
     const double g = std::max(0.0, -gravity.y);
     const double floor = w.centre.y - w.depth;
     const double spanX = w.nodeX(w.nx - 1), spanZ = w.nodeZ(w.nz - 1);
-    bool touched = false;
-    for (std::size_t i = 0; i < net.x.size(); ++i) {
-        const Vec3& p = net.x[i];
-        if (net.invMass[i] <= 0.0 || !(p.x >= w.nodeX(0) && p.x <= spanX) ||
-            !(p.z >= w.nodeZ(0) && p.z <= spanZ) || p.y < floor) {
-            continue;
+    const std::size_t n = net.x.size();
+    // the masses share out over the pool's threads, each writing its own force and displaced volume; the
+    // volumes are spread on the grid after, in mass order (the same bits at any thread count). Until the
+    // first thing reaches over the water the ambient surface is the surface itself (startAmbient)
+    const std::vector<double>& ambient = w.ambient.empty() ? w.h : w.ambient;
+    const bool hadForce = !net.waterForce.empty();
+    if (!hadForce) {
+        net.waterForce.assign(n, Vec3{});
+    }
+    w.massDisplaced.assign(n, 0.0);
+    struct Count {
+        std::size_t over = 0, under = 0; ///< masses over the water's grid, and those in the water
+        Count& operator+=(const Count& o) {
+            over += o.over;
+            under += o.under;
+            return *this;
         }
+    };
+    const Count count = pool.sum(n, kMassesGrain, Count{}, [&](std::size_t first, std::size_t end) {
+        Count part;
+        for (std::size_t i = first; i < end; ++i) {
+            const Vec3& p = net.x[i];
+            if (net.invMass[i] <= 0.0 || !(p.x >= w.nodeX(0) && p.x <= spanX) ||
+                !(p.z >= w.nodeZ(0) && p.z <= spanZ) || p.y < floor) {
+                continue;
+            }
+            ++part.over;
+            const Corners c = cornersAt(w, p.x, p.z);
+            Vec3 slope;
+            const double surface = surfaceAt(w, ambient, c, slope);
+            const double m = 1.0 / net.invMass[i];
+            const double volume = net.volumePerKg * m;
+            const double side = std::cbrt(volume);
+            // the part of the cube under water (a point: all of it or none)
+            const double bottom = std::max(p.y - 0.5 * side, floor), top = p.y + 0.5 * side;
+            const double under = side > 0.0 ? std::clamp((std::min(surface, top) - bottom) / side, 0.0, 1.0)
+                                            : (p.y < surface ? 1.0 : 0.0);
+            if (under <= 0.0) {
+                continue;
+            }
+            ++part.under;
+            const double displaced = volume * under;
+            // (a held mass gets the same force: an anchored one hands it to its body, and one unpinned
+            // before the next step moves off with it as a free mass would)
+            const Vec3 push = slope * (-w.density * g * displaced) + gravity * (-w.density * displaced);
+            const bool crossing = top > surface && p.y - 0.5 * side < surface;
+            const Vec3 ends = endVelocity(w, net.v[i], push, gravity, side, under, m, crossing, dt);
+            net.waterForce[i] += (ends - net.v[i] - gravity * dt) * (m / dt);
+            w.massDisplaced[i] = displaced;
+        }
+        return part;
+    });
+    if (count.over > 0) {
         startAmbient(w);
-        const Corners c = cornersAt(w, p.x, p.z);
-        Vec3 slope;
-        const double surface = ambientAt(w, c, slope);
-        const double m = 1.0 / net.invMass[i];
-        const double volume = net.volumePerKg * m;
-        const double side = std::cbrt(volume);
-        // the part of the cube under water (a point: all of it or none)
-        const double bottom = std::max(p.y - 0.5 * side, floor), top = p.y + 0.5 * side;
-        const double under = side > 0.0 ? std::clamp((std::min(surface, top) - bottom) / side, 0.0, 1.0)
-                                        : (p.y < surface ? 1.0 : 0.0);
-        if (under <= 0.0) {
-            continue;
-        }
-        const double displaced = volume * under;
-        const Vec3 lift = gravity * (-w.density * displaced);
-        if (net.waterForce.empty()) {
-            net.waterForce.assign(net.x.size(), Vec3{});
-        }
-        // (a held mass gets the same force: an anchored one hands it to its body, and one unpinned before
-        // the next step moves off with it as a free mass would)
-        const Vec3 push = slope * (-w.density * g * displaced) + lift;
-        const bool crossing = top > surface && p.y - 0.5 * side < surface;
-        const Vec3 ends = endVelocity(w, net.v[i], push, gravity, side, under, m, crossing, dt);
-        net.waterForce[i] += (ends - net.v[i] - gravity * dt) * (m / dt);
-        if (displaced > 0.0) {
-            spread(w.occupying, c, displaced / area);
+    }
+    if (count.under == 0 && !hadForce) {
+        net.waterForce.clear(); // (none in the water: the network's bits are as without water)
+    }
+    bool touched = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (w.massDisplaced[i] > 0.0) {
+            spread(w.occupying, cornersAt(w, net.x[i].x, net.x[i].z), w.massDisplaced[i] / area);
             touched = true;
         }
     }
@@ -543,7 +577,7 @@ bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt) 
 /// the slope of the surface over it (the pressure gradient under a wave, g times the slope per unit of
 /// displaced mass). The water feels the body through its displacement: the water a body pushes aside leaves
 /// the nodes under it and raises the rest of the surface by as much.
-void couple(World& world, Water& w, const Vec3& gravity, double dt) {
+void couple(World& world, Water& w, const Vec3& gravity, double dt, WorkerPool& pool) {
     std::vector<double>& now = w.occupying;
     const bool wasOccupied = w.anyOccupied; // `occupied` holds a share somewhere (else it is all zeros)
     if (!w.occupyingZero || now.size() != w.h.size()) {
@@ -683,7 +717,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt) {
         }
     }
     world.view<SpringNetwork>().each([&](Entity, SpringNetwork& net) {
-        if (!net.frozen && coupleMasses(w, net, gravity, dt)) {
+        if (!net.frozen && coupleMasses(w, net, gravity, dt, pool)) {
             touched = true;
         }
     });
@@ -819,7 +853,7 @@ void stepWater(World& world, const StepContext& ctx) {
         w.substeps = substeps;
         {
             ProfileStage stage(ctx.profiler, "water.bodies");
-            couple(world, w, gravity, ctx.dt);
+            couple(world, w, gravity, ctx.dt, poolOr(ctx.pool));
             absorbParticles(world, w, ctx.dt, poolOr(ctx.pool));
         }
         ProfileStage stage(ctx.profiler, "water.waves");
