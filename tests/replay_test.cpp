@@ -6,7 +6,6 @@
 
 #include "engine/replay.h"
 #include "tests/test_support.h"
-#include "tumble/sandbox.h"
 
 #include <gtest/gtest.h>
 
@@ -210,9 +209,6 @@ TEST(Replay, AnAlteredScenarioDivergesAndIsNamed) {
     EXPECT_EQ(r.exitCode, 4) << r.err;
     EXPECT_NE(r.err.find("diverged at frame 1:"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("springs state"), std::string::npos) << r.err;
-    // the library's verifyReplay says which file too (it did not)
-    const std::string said = verifyReplay(altered, 1);
-    EXPECT_EQ(said.rfind(altered + ": the replay diverged at frame 1:", 0), 0u) << said;
 }
 
 TEST(Replay, AKilledRecordingVerifiesUpToWhereItStopped) {
