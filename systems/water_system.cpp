@@ -791,10 +791,8 @@ void absorbParticles(World& world, Water& w, double dt, WorkerPool& pool) {
         for (const std::vector<std::uint32_t>& chunk : w.drops) {
             for (const std::uint32_t i : chunk) {
                 const Corners c = cornersAt(w, p.px[i], p.pz[i]);
-                const double* h = w.h.data();
-                const double surface = w.centre.y +
-                                       (h[c.n00] * (1.0 - c.fx) + h[c.n00 + 1] * c.fx) * (1.0 - c.fz) +
-                                       (h[c.n01] * (1.0 - c.fx) + h[c.n01 + 1] * c.fx) * c.fz;
+                Vec3 slope; // (not needed here)
+                const double surface = surfaceAt(w, w.h, c, slope);
                 const double was = double(p.py[i]) - double(p.vy[i]) * dt; // where it was a step ago
                 if (!(double(p.py[i]) < surface && was >= surface)) {
                     continue;
