@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -163,20 +164,26 @@ private:
     /// Runs chunks of the job until none is left to claim, from its front (the thread that posted it) or
     /// its back (a helper).
     void runChunks(Job& job, bool fromFront);
-    void post(Job& job);
-    void retire(Job& job);
+    struct Slot;
+    /// Publishes a job in a free slot and wakes the workers; null when every slot is taken (the caller then
+    /// runs the loop alone: the same chunks, the same bits).
+    Slot* post(Job& job);
+    /// Takes the job out of its slot once no helper is inside it; rethrows its first error.
+    void retire(Slot& slot, Job& job);
     /// Wakes threads asleep in awaitReady (a task has ended).
     void signal();
     /// Waits until ready() holds, helping with loops meanwhile, then sleeping.
     void awaitReady(const std::function<bool()>& ready);
 
     std::vector<std::thread> m_workers;
-    std::mutex m_mutex;                    ///< guards m_jobs and parking
-    std::condition_variable m_wake;        ///< parked workers wait here
-    std::vector<Job*> m_jobs;              ///< posted jobs that may still have chunks to claim
-    std::atomic<std::uint64_t> m_epoch{0}; ///< bumped whenever a job is posted
-    int m_parked = 0;
-    bool m_stop = false;
+    /// The posted jobs, one a slot, taken and read without a lock (see Slot)
+    std::unique_ptr<Slot[]> m_slots;
+    std::atomic<std::size_t> m_slotsUsed{0}; ///< slots ever taken: helpers look at [0, this) only
+    std::mutex m_mutex;                      ///< guards parking
+    std::condition_variable m_wake;          ///< parked threads wait here
+    std::atomic<std::uint64_t> m_epoch{0};   ///< bumped whenever a job is posted or a task ends
+    std::atomic<int> m_parked{0};
+    std::atomic<bool> m_stop{false};
     std::atomic<int> m_awake{0}; ///< Awake objects alive: idle workers do not sleep
 };
 

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -132,6 +133,34 @@ TEST(WorkerPool, NestedLoopsFinish) {
             pool.forEach(1000, 10, [&](std::size_t i) { total.fetch_add(long(i)); });
         });
         EXPECT_EQ(total.load(), 8L * 999 * 1000 / 2) << threads << " threads";
+    }
+}
+
+// Loops nested deeper than the pool has slots for posted loops (64): those posted when every slot is taken
+// run on their callers alone, every chunk once, and an error from the deepest still reaches the top.
+TEST(WorkerPool, LoopsNestedDeeperThanItsSlotsRunEveryChunkOnce) {
+    constexpr int kDepth = 100;
+    for (int threads : kThreadCounts) {
+        WorkerPool pool(threads);
+        std::atomic<long> ran{0};
+        std::function<void(int)> level = [&](int depth) {
+            pool.forChunks(3, 1, [&](std::size_t c, std::size_t, std::size_t) {
+                ran.fetch_add(1);
+                if (c == 0 && depth < kDepth) {
+                    level(depth + 1);
+                }
+                if (c == 2 && depth == kDepth) {
+                    throw std::runtime_error("deepest");
+                }
+            });
+        };
+        try {
+            level(1);
+            FAIL() << "no error at " << threads << " threads";
+        } catch (const std::runtime_error& e) {
+            EXPECT_STREQ(e.what(), "deepest") << threads << " threads";
+        }
+        EXPECT_EQ(ran.load(), 3L * kDepth) << threads << " threads";
     }
 }
 
