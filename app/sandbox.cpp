@@ -338,6 +338,9 @@ std::string verifyReplay(const std::string& path, int threads) {
     const bool complete = src.replay->complete;
     const std::uint64_t validBytes = src.replay->validBytes;
     const int code = runSession(builtinCatalog(), o, src);
+    if (!diverged.empty()) {
+        diverged = path + ": " + diverged; // which file, as the messages below say
+    }
     if (diverged.empty() && code != kExitOk && code != kExitFailure) {
         // not a divergence, but not every frame checked either (an interrupt stopped it); a failure (a
         // blow-up) does not stop a run, and the recording met it too
