@@ -97,16 +97,19 @@ struct WorkerPool::Job {
     std::size_t errorChunk = std::numeric_limits<std::size_t>::max();
 };
 
-/// A posted job's place. A helper enters a slot (visitors + 1) before it reads the job there, and the
-/// thread that posted it empties the slot, then waits until no helper is inside before the job ends: the
-/// two orders are sequentially consistent, so either the helper sees the slot emptied or its owner sees the
-/// helper (no lock on the way of a fork-join: a mutex taken to post, to find and to retire a job, as
-/// before, cost about a third of the 0.58 us an empty fork-join took at two threads). While its owner waits,
-/// the slot holds a mark of its own (retiring()) that no other job may replace, so that nobody can enter it
-/// for a new job (a long one, the schedule's tasks) and hold the owner up.
+/// A posted job's place. A helper enters a slot (visitors + 1) before it reads the job there; the thread
+/// that posted the job, once its chunks are done, puts a mark of the slot's own in it (retiring()), waits
+/// until no helper is inside, and only then empties it. The entering and the marking are sequentially
+/// consistent, so either the helper sees the mark (and leaves without reading the job) or the owner sees
+/// the helper and waits for it. No lock on the way of a fork-join: a mutex taken to post, to find and to
+/// retire a job, as before, cost about a third of the 0.5 us an empty fork-join took at two threads. The
+/// mark keeps the slot from taking a new job (a long one, the schedule's tasks) whose helpers would hold the
+/// waiting owner up. `helpable` copies the job's, so that a thread waiting for tasks, which only helps
+/// loops, does not enter the slot of the tasks' own job again and again.
 struct alignas(64) WorkerPool::Slot {
     std::atomic<Job*> job{nullptr};
     std::atomic<int> visitors{0};
+    std::atomic<bool> helpable{true};
 
     Job* retiring() { return reinterpret_cast<Job*>(this); } // never a job's address: compared, not read
 };
@@ -225,6 +228,7 @@ WorkerPool::Slot* WorkerPool::post(Job& job) {
             !slot.job.compare_exchange_strong(empty, &job)) {
             continue;
         }
+        slot.helpable.store(job.helpable, std::memory_order_relaxed); // a hint: the job's own is checked
         std::size_t used = m_slotsUsed.load(std::memory_order_relaxed);
         while (used <= s && !m_slotsUsed.compare_exchange_weak(used, s + 1)) {
         }
@@ -271,7 +275,8 @@ bool WorkerPool::runSomeChunk(bool helpableOnly) {
     for (std::size_t s = m_slotsUsed.load(std::memory_order_acquire); s-- > 0;) {
         Slot& slot = m_slots[s];
         const Job* glimpse = slot.job.load(std::memory_order_relaxed);
-        if (glimpse == nullptr || glimpse == slot.retiring()) {
+        if (glimpse == nullptr || glimpse == slot.retiring() ||
+            (helpableOnly && !slot.helpable.load(std::memory_order_relaxed))) {
             continue;
         }
         slot.visitors.fetch_add(1);
@@ -462,6 +467,8 @@ void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_
     waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
     if (slot) {
         retire(*slot, job);
+    } else if (job.error) {
+        std::rethrow_exception(job.error); // what retire rethrows (an error of ready(), met in work())
     }
     if (tasks.error) {
         std::rethrow_exception(tasks.error);

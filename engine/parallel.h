@@ -8,9 +8,10 @@
 // in its cache, loop after loop), a share of what is left at a time (what is left over twice the thread
 // count, at least one chunk: a loop of 80 chunks is 16 claims at two threads, not 80, each moving the claims'
 // cache line between cores), so which thread runs a chunk varies, but a chunk's work does not depend on it. A
-// loop of 2^32 chunks or more runs on the caller alone. A reduction keeps one partial per chunk and adds the
-// partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one thread
-// the chunks simply run in order on the caller, through the same code.
+// loop of 2^32 chunks or more runs on the caller alone, and so does one posted while loops are nested so
+// deep that the pool's 64 slots for posted loops are all taken. A reduction keeps one partial per chunk and
+// adds the partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one
+// thread the chunks simply run in order on the caller, through the same code.
 //
 // Why our own pool and not oneTBB: a conjugate-gradient step of the cloth makes hundreds of fork-joins of
 // a few microseconds each; what they cost is waking the workers, so idle workers spin for a short while
@@ -129,7 +130,8 @@ public:
     /// dependencies have finished (ready(i) says so; it is polled), so a chain of dependent tasks stays on
     /// one thread and a thread never holds a task it cannot start. While no task is ready a thread helps
     /// with the chunked loops of running tasks, then sleeps until one ends. Used by the schedule to run
-    /// systems side by side; ready() must only depend on lower-numbered tasks.
+    /// systems side by side; ready() must only depend on lower-numbered tasks. With every slot for posted
+    /// loops taken, the caller runs the tasks alone, each as it comes ready.
     void runTasks(std::size_t count, const std::function<bool(std::size_t)>& ready,
                   const std::function<void(std::size_t)>& task);
 
@@ -170,7 +172,8 @@ private:
     Slot* post(Job& job);
     /// Takes the job out of its slot once no helper is inside it; rethrows its first error.
     void retire(Slot& slot, Job& job);
-    /// Wakes threads asleep in awaitReady (a task has ended).
+    /// Bumps the epoch and wakes the parked threads, workers and those asleep in awaitReady (a job was
+    /// posted, a task has ended, an Awake began).
     void signal();
     /// Waits until ready() holds, helping with loops meanwhile, then sleeping.
     void awaitReady(const std::function<bool()>& ready);
@@ -181,7 +184,8 @@ private:
     std::atomic<std::size_t> m_slotsUsed{0}; ///< slots ever taken: helpers look at [0, this) only
     std::mutex m_mutex;                      ///< guards parking
     std::condition_variable m_wake;          ///< parked threads wait here
-    std::atomic<std::uint64_t> m_epoch{0};   ///< bumped whenever a job is posted or a task ends
+    /// bumped by signal(): when a job is posted, a task ends, an Awake begins, the pool stops
+    std::atomic<std::uint64_t> m_epoch{0};
     std::atomic<int> m_parked{0};
     std::atomic<bool> m_stop{false};
     std::atomic<int> m_awake{0}; ///< Awake objects alive: idle workers do not sleep

@@ -164,6 +164,42 @@ TEST(WorkerPool, LoopsNestedDeeperThanItsSlotsRunEveryChunkOnce) {
     }
 }
 
+// Tasks run from inside loops nested past the pool's slots run on their caller alone, every one, and an error
+// of ready() still reaches the caller, as it does with a slot free (the slot's owner rethrew it; without a
+// slot it was dropped).
+TEST(WorkerPool, TasksPostedWithEverySlotTakenRunAndKeepTheirErrors) {
+    for (const int depth : {1, 70}) {
+        for (const int threads : {2, 4}) {
+            WorkerPool pool(threads);
+            std::atomic<int> ran{0};
+            std::atomic<bool> thrown{false};
+            const std::function<bool(std::size_t)> ready = [&](std::size_t i) {
+                if (i == 1 && !thrown.exchange(true)) {
+                    throw std::runtime_error("ready");
+                }
+                return true;
+            };
+            const std::function<void(std::size_t)> task = [&](std::size_t) { ran.fetch_add(1); };
+            std::function<void(int)> level = [&](int d) {
+                pool.forChunks(2, 1, [&](std::size_t c, std::size_t, std::size_t) {
+                    if (c == 0 && d < depth) {
+                        level(d + 1);
+                    } else if (c == 0) {
+                        pool.runTasks(3, ready, task);
+                    }
+                });
+            };
+            try {
+                level(1);
+                ADD_FAILURE() << "no error at depth " << depth << ", " << threads << " threads";
+            } catch (const std::runtime_error& e) {
+                EXPECT_STREQ(e.what(), "ready") << depth << ", " << threads << " threads";
+            }
+            EXPECT_EQ(ran.load(), 3) << depth << ", " << threads << " threads";
+        }
+    }
+}
+
 // Workers kept awake (WorkerPool::Awake, held by a thread-count trial's runs on one thread) still take the
 // loops posted meanwhile and after, nested ones too, and the pool stops when it goes, workers asleep or not.
 TEST(WorkerPool, AwakeWorkersStillTakeLoopsAndStop) {
