@@ -79,7 +79,7 @@ struct ReplayFile {
 /// pressures; 21: spring networks' masses float in water, its force on them hashed, and particles fall in),
 /// so that another version's replay is refused with a message rather than failing to verify. When it goes up,
 /// bash tests/fuzz/make_replay_seeds.sh writes the replay fuzzer's seeds again (a test says so).
-inline constexpr std::uint32_t kReplayVersion = 21;
+inline constexpr std::uint32_t kReplayVersion = 22;
 inline constexpr std::uint32_t kFramesPerChunk = 8;
 
 /// This program's build id, as written into replays.

@@ -444,12 +444,17 @@ double ambientAt(const Water& w, const Corners& c, Vec3& slope) {
     return surfaceAt(w, w.ambient, c, slope);
 }
 
-/// Adds a height (a volume over a node's cell) to the four nodes round a point, by their bilinear shares.
-void spread(std::vector<double>& field, const Corners& c, double height) {
-    field[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz);
-    field[c.n00 + 1] += height * c.fx * (1.0 - c.fz);
-    field[c.n01] += height * (1.0 - c.fx) * c.fz;
-    field[c.n01 + 1] += height * c.fx * c.fz;
+/// Adds a volume, given as a height over one whole cell, to the four nodes round a point by their bilinear
+/// weights. A node on the grid's edge holds half a cell and a corner a quarter (nodeShare), so it rises by
+/// its weight over its share: the volume, the sum of share x height x dx dz, grows by height x dx dz
+/// wherever the point is. (Caught: before, a drop into the outermost ring of cells added half its volume
+/// or less, and a body there displaced as little.)
+void spread(const Water& w, std::vector<double>& field, const Corners& c, double height) {
+    const int i = int(c.n00 % std::size_t(w.nx)), k = int(c.n00 / std::size_t(w.nx));
+    field[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz) / nodeShare(w, i, k);
+    field[c.n00 + 1] += height * c.fx * (1.0 - c.fz) / nodeShare(w, i + 1, k);
+    field[c.n01] += height * (1.0 - c.fx) * c.fz / nodeShare(w, i, k + 1);
+    field[c.n01 + 1] += height * c.fx * c.fz / nodeShare(w, i + 1, k + 1);
 }
 
 /// The velocity a mass in water would end the next step with under gravity and the water alone, from v: the
@@ -554,7 +559,7 @@ bool coupleMasses(Water& w, SpringNetwork& net, const Vec3& gravity, double dt, 
     bool touched = false;
     for (std::size_t i = 0; i < n; ++i) {
         if (w.massDisplaced[i] > 0.0) {
-            spread(w.occupying, cornersAt(w, net.x[i].x, net.x[i].z), w.massDisplaced[i] / area);
+            spread(w, w.occupying, cornersAt(w, net.x[i].x, net.x[i].z), w.massDisplaced[i] / area);
             touched = true;
         }
     }
@@ -650,7 +655,7 @@ void couple(World& world, Water& w, const Vec3& gravity, double dt, WorkerPool& 
                     waterlineMomentZ += column * rz * rz;
                 }
                 // the water it displaces leaves the four nodes round it, as heights over their cells
-                spread(now, c, displaced / area);
+                spread(w, now, c, displaced / area);
                 touched = true;
             }
         }
@@ -801,9 +806,9 @@ void absorbParticles(World& world, Water& w, double dt, WorkerPool& pool) {
                                                       (float(p.deathStep[i] - p.birthStep[i]) + 1.0f));
                 const double across = particleSize(e.def, life);
                 const double height = std::numbers::pi / 6.0 * across * across * across / area;
-                spread(w.h, c, height);
+                spread(w, w.h, c, height);
                 if (!w.ambient.empty()) {
-                    spread(w.ambient, c, height);
+                    spread(w, w.ambient, c, height);
                     w.ambientStill = false; // its rings travel on the surface bodies float on
                 }
                 p.deathStep[i] = p.clock; // dies in the next update
