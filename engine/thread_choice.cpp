@@ -7,7 +7,6 @@ namespace tumble {
 namespace {
 
 constexpr int kTrialRuns = 2 * ThreadChoice::kTrial;
-constexpr int kCycleEnd = ThreadChoice::kSkip + kTrialRuns + ThreadChoice::kPeriod;
 
 double median(std::array<double, ThreadChoice::kTrial> v) {
     std::sort(v.begin(), v.end());
@@ -27,6 +26,7 @@ bool ThreadChoice::share(int threads) {
         // another pool: what was measured does not hold for it
         m_threads = threads;
         m_run = std::min(m_run, kSkip);
+        m_alonePeriod = kAlonePeriod;
     }
     if (threads <= 1 || m_run < kSkip) {
         return true;
@@ -47,6 +47,13 @@ void ThreadChoice::record(int threads, double seconds) {
             const double shared = median(m_samples[0]), alone = median(m_samples[1]);
             m_sharing = sharingWins(shared, alone);
             m_otherMedian = m_sharing ? alone : shared;
+            if (m_sharing) {
+                m_period = kPeriod;
+                m_alonePeriod = kAlonePeriod;
+            } else {
+                m_period = m_alonePeriod;
+                m_alonePeriod = std::min(2 * m_alonePeriod, kPeriod);
+            }
         }
     } else if (t >= kTrialRuns) {
         // the chosen way's last runs in place of its trial median: would the trial still choose it?
@@ -62,7 +69,7 @@ void ThreadChoice::record(int threads, double seconds) {
         }
     }
     // after the period a new trial, with nothing skipped
-    m_run = m_run + 1 == kCycleEnd ? kSkip : m_run + 1;
+    m_run = m_run + 1 == kSkip + kTrialRuns + m_period ? kSkip : m_run + 1;
 }
 
 bool ThreadChoice::inTrial() const {

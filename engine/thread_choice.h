@@ -19,9 +19,13 @@
 // caches); then a trial of kTrial runs each way, alternating (so that a machine slowing down or speeding up
 // weighs on both alike); the way with the lower median wins, one thread only when it is faster by more than
 // kMargin; after kPeriod runs of the chosen way the trial is made again, so a machine whose second core
-// comes free is noticed: kTrial runs of the slower way in every kPeriod + 2 kTrial. Meanwhile every kTrial
-// runs of the chosen way are a check: if, with their median in place of the chosen way's trial median, the
-// trial would have gone the other way (a trial misled by noise, or the machine's other core taken since),
+// comes free is noticed: kTrial runs of the slower way in every kPeriod + 2 kTrial. When one thread wins, the
+// next trial comes sooner: after kAlonePeriod runs, then twice as many after each trial one thread wins
+// again, up to kPeriod (a verdict against sharing on a machine with a second core is the likelier mistake:
+// the first trial runs while the caches and the threads' placement settle, and a wrong verdict that way
+// costs the period at up to half speed, while a trial costs kTrial runs of the slower way). Meanwhile every
+// kTrial runs of the chosen way are a check: if, with their median in place of the chosen way's trial median,
+// the trial would have gone the other way (a trial misled by noise, or the machine's other core taken since),
 // the next run starts a trial at once. A pool of another size (Simulation::setThreads) starts a trial too.
 // During a trial's runs on one thread the pool's workers are kept awake (WorkerPool::Awake): the run after
 // each shares, and waking sleeping workers for it (a thread switch on each vCPU: tens of microseconds on a
@@ -41,9 +45,11 @@ namespace tumble {
 /// The clock's choice between a pool's threads and the calling thread alone; see the header comment.
 class ThreadChoice {
 public:
-    static constexpr int kSkip = 2;         ///< runs at the start that share and are not timed
-    static constexpr int kTrial = 5;        ///< runs of each way in a trial
-    static constexpr int kPeriod = 300;     ///< runs of the chosen way between two trials (5 s at 60 Hz)
+    static constexpr int kSkip = 2;     ///< runs at the start that share and are not timed
+    static constexpr int kTrial = 5;    ///< runs of each way in a trial
+    static constexpr int kPeriod = 300; ///< runs of the chosen way between two trials (5 s at 60 Hz)
+    /// runs alone after the first trial one thread wins; doubled after each next one it wins, up to kPeriod
+    static constexpr int kAlonePeriod = 30;
     static constexpr double kMargin = 0.03; ///< one thread wins only when its median is this much lower
 
     /// Whether the next run should share out over a pool of `threads` threads (always, with one); a count
@@ -80,7 +86,9 @@ private:
     /// Which run of the current cycle comes next: [0, kSkip) skipped (the first cycle only), then the trial's
     /// 2 kTrial runs, then kPeriod runs of the chosen way.
     int m_run = 0;
-    int m_threads = 0; ///< the pool's size at the last run
+    int m_threads = 0;                ///< the pool's size at the last run
+    int m_period = kPeriod;           ///< runs of the chosen way before the next trial
+    int m_alonePeriod = kAlonePeriod; ///< m_period after the next trial, if one thread wins it
     bool m_sharing = true;
     std::array<std::array<double, kTrial>, 2> m_samples{}; ///< s; [0]: shared, [1]: alone
     double m_otherMedian = 0.0;                            ///< s, the way not chosen, in the last trial
