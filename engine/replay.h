@@ -76,7 +76,8 @@ struct ReplayFile {
 /// grid's smoke and heat carried by finite volumes; 15: their MacCormack limiter bounded by the box's cells
 /// alone; 16-19: air and fem changes, README "Replays"; 20: the air's multigrid smoothed with Chebyshev's
 /// weights, its coarse levels weighed 2.2 times the level above, its first guess carried on from the last two
-/// pressures; 21: spring networks' masses float in water, its force on them hashed, and particles fall in),
+/// pressures; 21: spring networks' masses float in water, its force on them hashed, and particles fall in;
+/// 22: a volume met on the water's outermost cells spread by the nodes' shares of a cell),
 /// so that another version's replay is refused with a message rather than failing to verify. When it goes up,
 /// bash tests/fuzz/make_replay_seeds.sh writes the replay fuzzer's seeds again (a test says so).
 inline constexpr std::uint32_t kReplayVersion = 22;

@@ -21,15 +21,16 @@
 // kMargin; after kPeriod runs of the chosen way the trial is made again, so a machine whose second core
 // comes free is noticed: kTrial runs of the slower way in every kPeriod + 2 kTrial. When one thread wins, the
 // next trial comes sooner: after kAlonePeriod runs, then twice as many after each trial one thread wins
-// again, up to kPeriod (a verdict against sharing on a machine with a second core is the likelier mistake:
-// the first trial runs while the caches and the threads' placement settle, and a wrong verdict that way
-// costs the period at up to half speed, while a trial costs kTrial runs of the slower way). Meanwhile every
-// kTrial runs of the chosen way are a check: if, with their median in place of the chosen way's trial median,
-// the trial would have gone the other way (a trial misled by noise, or the machine's other core taken since),
-// the next run starts a trial at once. A pool of another size (Simulation::setThreads) starts a trial too.
-// During a trial's runs on one thread the pool's workers are kept awake (WorkerPool::Awake): the run after
-// each shares, and waking sleeping workers for it (a thread switch on each vCPU: tens of microseconds on a
-// VM) would be counted against sharing, which a run after a shared one does not pay.
+// again, up to kPeriod; a trial sharing wins, or a pool of another size, starts that count again (a verdict
+// against sharing on a machine with a second core is the likelier mistake: the first trial runs while the
+// caches and the threads' placement settle, and a wrong verdict that way costs the period at up to half
+// speed, while a trial costs kTrial runs of the slower way). Meanwhile every kTrial runs of the chosen way
+// are a check: if, with their median in place of the chosen way's trial median, the trial would have gone the
+// other way (a trial misled by noise, or the machine's other core taken since), the next run starts a trial
+// at once. A pool of another size (Simulation::setThreads) starts a trial too. During a trial's runs on one
+// thread the pool's workers are kept awake (WorkerPool::Awake): the run after each shares, and waking
+// sleeping workers for it (a thread switch on each vCPU: tens of microseconds on a VM) would be counted
+// against sharing, which a run after a shared one does not pay.
 //
 // Systems do not read the wall clock (STYLE.md) for what they compute; this reads it for where the work
 // runs only, as the schedule's choice of running a phase side by side does.
@@ -48,7 +49,8 @@ public:
     static constexpr int kSkip = 2;     ///< runs at the start that share and are not timed
     static constexpr int kTrial = 5;    ///< runs of each way in a trial
     static constexpr int kPeriod = 300; ///< runs of the chosen way between two trials (5 s at 60 Hz)
-    /// runs alone after the first trial one thread wins; doubled after each next one it wins, up to kPeriod
+    /// runs alone after a trial one thread wins, when the trial before it went to sharing (or there was none,
+    /// or the pool changed size); doubled after each next one it wins, up to kPeriod
     static constexpr int kAlonePeriod = 30;
     static constexpr double kMargin = 0.03; ///< one thread wins only when its median is this much lower
 
@@ -84,7 +86,7 @@ public:
 
 private:
     /// Which run of the current cycle comes next: [0, kSkip) skipped (the first cycle only), then the trial's
-    /// 2 kTrial runs, then kPeriod runs of the chosen way.
+    /// 2 kTrial runs, then m_period runs of the chosen way.
     int m_run = 0;
     int m_threads = 0;                ///< the pool's size at the last run
     int m_period = kPeriod;           ///< runs of the chosen way before the next trial
