@@ -597,7 +597,7 @@ TEST(Water, DropsIntoTheOutermostCellsAddTheirWholeVolume) {
     // five such drops into the corner cell of the pool (its nodes on the edges hold half a cell, the corner
     // a quarter), and five into a cell along one edge: each adds its whole volume. (Caught: spread onto the
     // four nodes by the bilinear weights alone, the corner's drops added 49% of their volume, the edge's
-    // 70%.) Fifty into one cell raise it so fast that some are under the surface before they meet it.
+    // 69%.) Fifty into one cell raise it so fast that some are under the surface before they meet it.
     for (const double z : {1.47, 0.0}) {
         auto sim =
             test::makeSimulation(pool(1.0 / 240.0, "cells = [41, 41]\nsize = [3.0, 3.0]\ndepth = 1.0\n",
