@@ -69,6 +69,54 @@ void BM_CurtainImplicit100(benchmark::State& state) {
 }
 BENCHMARK(BM_CurtainImplicit100)->Unit(benchmark::kMillisecond)->Iterations(30)->Arg(1)->Arg(2);
 
+// the 100 x 100 step's linear solve alone (the multigrid's update and the conjugate gradients), from zero,
+// on four systems the step met (after 120, 135, 150 and 165 frames), one after the other: the solver's
+// cost without the differences of the path a scene takes. A solver that gives other bits leads the step
+// benchmarks to other states after their 120 frames, and so to other iteration counts, which hide a few
+// percent either way (README, "Threads"); here every build solves the same systems.
+void BM_SolveCurtain100(benchmark::State& state) {
+    const std::string path = std::string(TUMBLE_SOURCE_DIR) + "/demos/curtain.toml";
+    Simulation sim(catalog(), path, readScenarioFile(path),
+                   {"curtain.cloth.rows=100", "curtain.cloth.cols=100"});
+    WorkerPool pool(int(state.range(0)));
+    StepContext ctx;
+    ctx.dt = sim.scene().dt;
+    ctx.seed = sim.scene().seed;
+    ctx.pool = &pool;
+    std::vector<BlockMatrix<float>> systems;
+    std::vector<std::vector<Vec3T<float>>> sides;
+    std::vector<std::uint8_t> pinned;
+    double tolerance = 0.0;
+    for (int frames : {120, 15, 15, 15}) {
+        for (int i = 0; i < frames; ++i) {
+            sim.runFrame();
+        }
+        integrateSprings(sim.world(), ctx); // assembles the system of a step
+        sim.world().view<SpringWorkspace, const SpringNetwork>().each(
+            [&](Entity, SpringWorkspace& w, const SpringNetwork& net) {
+                systems.push_back(w.single.system);
+                sides.push_back(w.single.rhs);
+                pinned = net.pinned;
+                tolerance = net.cgTolerance;
+            });
+    }
+    AggregationMultigrid<float> multigrid;
+    PcgVectors<float> work;
+    std::vector<Vec3T<float>> x;
+    double iterations = 0.0;
+    for (auto _ : state) {
+        for (std::size_t k = 0; k < systems.size(); ++k) {
+            multigrid.update(systems[k], pool);
+            work.remembered = 0;
+            x.assign(systems[k].n, Vec3T<float>{});
+            iterations +=
+                solvePcg(systems[k], sides[k], x, multigrid, pinned, tolerance, 500, work, pool).iterations;
+        }
+    }
+    state.counters["cg_iterations"] = iterations / static_cast<double>(state.iterations() * systems.size());
+}
+BENCHMARK(BM_SolveCurtain100)->Unit(benchmark::kMillisecond)->Iterations(12)->Arg(1)->Arg(2);
+
 // symplectic Euler needs about 47 substeps per 60 fps frame on this cloth (BASELINES.md): one such step
 void BM_CurtainSymplectic35(benchmark::State& state) {
     curtainStep(state,
