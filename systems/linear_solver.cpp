@@ -490,7 +490,7 @@ template <class S>
 void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv,
                                             const Colouring& colours, bool fromZero,
                                             const std::vector<Vec>& b, std::vector<Vec>& x,
-                                            WorkerPool& pool) const {
+                                            std::vector<Vec>* residual, WorkerPool& pool) const {
     // colour after colour, each colour's blocks at once, rows in order inside a block (forward: the first
     // sweep, as if from x = 0; backward: the exact reverse order, so the V-cycle stays symmetric). A block
     // reads other blocks of its colour nowhere, so any thread count gives the same bits.
@@ -518,6 +518,14 @@ void AggregationMultigrid<S>::smoothColours(const BlockMatrix<S>& a, const std::
                 // only the blocks of rows swept before a row count (x is not cleared: none other is read)
                 kernels::forwardRowPairFromZero(a, dinv.data(), b.data(), x.data(), one, other,
                                                 &colours.order);
+                if (residual && c == count - 1) {
+                    // the last colour's rows are swept after every row they read but those later in their
+                    // own block: their residual is final here, while their blocks are still in the cache
+                    for (const kernels::RowRange& rows : {one, other}) {
+                        kernels::residualAfterForward(a, x.data(), residual->data(), rows.first, rows.end,
+                                                      &colours.order);
+                    }
+                }
             } else {
                 kernels::smoothRows(a, dinv.data(), b.data(), x.data(), one.first, one.end, false);
             }
@@ -545,10 +553,14 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     };
     const bool coloured = !m_colours[level].start.empty();
     if (coloured) {
-        // forward by colour as if from x = 0, then the residual (the blocks of rows swept after a row only)
-        smoothColours(a, dinv, m_colours[level], true, b, x, pool);
-        rowChunks([&](std::uint32_t first, std::uint32_t end) {
-            kernels::residualAfterForward(a, x.data(), r.data(), first, end, &m_colours[level].order);
+        // forward by colour as if from x = 0, then the residual (the blocks of rows swept after a row only):
+        // the last colour's as it is swept, the other colours' block by block after it
+        const Colouring& colours = m_colours[level];
+        smoothColours(a, dinv, colours, true, b, x, &r, pool);
+        pool.forEach(colours.start[colours.start.size() - 2], 1, [&](std::size_t k) {
+            const std::uint32_t first = colours.blocks[k] * colours.rows;
+            kernels::residualAfterForward(a, x.data(), r.data(), first, std::min(a.n, first + colours.rows),
+                                          &colours.order);
         });
     } else {
         // forward row after row as if from x = 0, then the residual (blocks right of the diagonal only)
@@ -570,7 +582,7 @@ void AggregationMultigrid<S>::cycle(std::size_t level, const std::vector<Vec>& b
     cycle(level + 1, next.b, next.x, pool);
     pool.forEach(a.n, kShareRows, [&](std::size_t i) { x[i] += next.x[next.group[i]]; });
     if (coloured) {
-        smoothColours(a, dinv, m_colours[level], false, b, x, pool);
+        smoothColours(a, dinv, m_colours[level], false, b, x, nullptr, pool);
     } else {
         kernels::smoothRows(a, dinv.data(), b.data(), x.data(), 0, a.n, false);
     }

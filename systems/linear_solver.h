@@ -114,9 +114,11 @@ private:
 
     void build(const BlockMatrix<S>& fine);
     /// The first forward sweep, as if from x = 0 (fromZero), or a backward sweep from x as it is, colour by
-    /// colour.
+    /// colour; a forward one given `residual` also forms the residual b - A x of the last colour's rows there
+    /// (kernels::residualAfterForward), the other rows' being left to the caller.
     void smoothColours(const BlockMatrix<S>& a, const std::vector<Mat>& dinv, const Colouring& colours,
-                       bool fromZero, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool) const;
+                       bool fromZero, const std::vector<Vec>& b, std::vector<Vec>& x,
+                       std::vector<Vec>* residual, WorkerPool& pool) const;
     void cycle(std::size_t level, const std::vector<Vec>& b, std::vector<Vec>& x, WorkerPool& pool);
     void factorCoarsest();
     bool factorDense(std::size_t dim, double shift);
