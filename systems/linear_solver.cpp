@@ -16,10 +16,10 @@ namespace {
 constexpr std::uint32_t kCoarsestRows = 8; // solved by dense Cholesky (24 x 24 at most)
 constexpr std::size_t kMaxLevels = 32;
 
-/// Rows per chunk of the solver's loops that are not sums (the V-cycle's residuals, restrictions and
-/// prolongations, CG's direction update, the diagonal inverses): small enough that the curtain's 1225 rows
-/// share out evenly over two threads (see kMassGrain); they change no bit. The products that CG sums as it
-/// goes keep kDotRows.
+/// Rows per chunk of the solver's loops that are not sums (the V-cycle's restrictions and prolongations,
+/// the residuals of levels swept row after row, CG's direction update, the diagonal inverses): small enough
+/// that the curtain's 1225 rows share out evenly over two threads (see kMassGrain); they change no bit. The
+/// products that CG sums as it goes keep kDotRows; a coloured level's residuals go by its blocks of rows.
 constexpr std::size_t kShareRows = 128;
 
 /// Coupling strength of each stored block: the off-diagonal blocks of these matrices are -(h kd uu^T + h^2 K)
