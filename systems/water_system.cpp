@@ -393,6 +393,7 @@ double bodyVolume(const RigidBody& b) {
 /// Where world (x, z), on the grid, falls between nodes: the node below-left of it (n00), the one above
 /// it in z (n01; n00 + 1 and n01 + 1 are their neighbours in x), and how far along each way (0 to 1).
 struct Corners {
+    int i = 0, k = 0; ///< the cell's lower node along x and z
     std::size_t n00 = 0, n01 = 0;
     double fx = 0.0, fz = 0.0;
 };
@@ -402,6 +403,8 @@ Corners cornersAt(const Water& w, double x, double z) {
     const double gz = std::clamp((z - w.nodeZ(0)) / w.dz(), 0.0, double(w.nz - 1));
     const int i = std::min(int(gx), w.nx - 2), k = std::min(int(gz), w.nz - 2);
     Corners c;
+    c.i = i;
+    c.k = k;
     c.n00 = std::size_t(k) * w.nx + i;
     c.n01 = c.n00 + std::size_t(w.nx);
     c.fx = gx - i;
@@ -450,11 +453,10 @@ double ambientAt(const Water& w, const Corners& c, Vec3& slope) {
 /// wherever the point is. (Caught: before, a drop into the outermost ring of cells added half its volume
 /// or less, and a body there displaced as little.)
 void spread(const Water& w, std::vector<double>& field, const Corners& c, double height) {
-    const int i = int(c.n00 % std::size_t(w.nx)), k = int(c.n00 / std::size_t(w.nx));
-    field[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz) / nodeShare(w, i, k);
-    field[c.n00 + 1] += height * c.fx * (1.0 - c.fz) / nodeShare(w, i + 1, k);
-    field[c.n01] += height * (1.0 - c.fx) * c.fz / nodeShare(w, i, k + 1);
-    field[c.n01 + 1] += height * c.fx * c.fz / nodeShare(w, i + 1, k + 1);
+    field[c.n00] += height * (1.0 - c.fx) * (1.0 - c.fz) / nodeShare(w, c.i, c.k);
+    field[c.n00 + 1] += height * c.fx * (1.0 - c.fz) / nodeShare(w, c.i + 1, c.k);
+    field[c.n01] += height * (1.0 - c.fx) * c.fz / nodeShare(w, c.i, c.k + 1);
+    field[c.n01 + 1] += height * c.fx * c.fz / nodeShare(w, c.i + 1, c.k + 1);
 }
 
 /// The velocity a mass in water would end the next step with under gravity and the water alone, from v: the
