@@ -76,47 +76,67 @@ int defaultThreadCount() {
     return std::clamp(static_cast<int>(hw), 1, kMaxThreads);
 }
 
-/// One fork-join: a loop's chunks, claimed a share at a time (claimChunks) by whoever runs them.
-struct WorkerPool::Job {
-    std::size_t n = 0, grain = 0, chunks = 0;
+namespace {
+
+/// A slot's claim word: the chunks not yet claimed, [front, back), front in the low 31 bits and back in bits
+/// 32 to 62, and in the top bit that the loop is the schedule's tasks (helpers waiting for tasks leave it
+/// alone, and its chunks go one a claim).
+constexpr std::uint64_t kBack = std::uint64_t(1) << 32;
+constexpr std::uint64_t kSpan = (std::uint64_t(1) << 31) - 1;
+constexpr std::uint64_t kTasks = std::uint64_t(1) << 63;
+
+bool anyLeft(std::uint64_t word) {
+    return (word & kSpan) < ((word >> 32) & kSpan);
+}
+
+} // namespace
+
+/// A posted loop's place, and the loop itself. Slots live as long as the pool, so a helper never reads freed
+/// memory and the owner need not wait for helpers to leave. The claim word says everything a claim needs:
+/// a helper that read it for one loop and claims from it once it holds another (the owner reused the slot
+/// meanwhile) claims chunks of the loop that is there, which is right. A helper reads the rest of the loop
+/// after each claim: until the chunks it claimed are done the owner cannot reuse the slot, and the claim (an
+/// acquiring exchange) sees what the owner wrote before it published the chunks.
+///
+/// What a fork-join costs is cache lines moving between the cores (a round trip took 0.57-0.69 us between
+/// this machine's two virtual cores, two threads bouncing a flag). So the loop shares its line with the claim
+/// word, and a helper that sees the chunks has the loop with them; the helpers' count of finished chunks has
+/// a line of its own, which only they write (the owner counts its own chunks); and the owner's hold on the
+/// slot is on a line of its own. Before, the loop was on the owner's stack, a helper counted itself into the
+/// slot before it read the loop, and the owner, its chunks done, waited for the helpers to leave: a move of
+/// the slot's line more on every fork-join's way. Alternating, five runs of five repetitions (medians, two
+/// threads): four chunks of a little work (`BM_PoolForkJoin/2`) 1.35-1.44 -> 1.31-1.35 us, 80 small chunks
+/// (`BM_PoolForkJoinManyChunks/2`) 2.14-2.38 -> 1.91-2.01 us, an empty fork-join the same (0.24-0.33 us);
+/// the curtain's step within the noise.
+struct WorkerPool::Slot {
+    alignas(64) std::atomic<std::uint64_t> unclaimed{0}; ///< the claim word (above)
+    // the loop: written by the owner before it publishes the chunks, read by a helper holding a claim
     void* fn = nullptr;
     ChunkFn call = nullptr;
-    bool helpable = true; ///< false for the schedule's tasks, which wait on each other
-    /// The chunks not yet claimed, [front, back): the low 32 bits hold front, the high ones back. The
-    /// thread that posted the loop claims from the front and helpers from the back, so on two threads
-    /// each keeps to its own end from one loop to the next and finds its rows still in its own cache.
-    std::atomic<std::uint64_t> unclaimed{0};
-    std::atomic<std::size_t> finished{0}; ///< chunks done
-    /// a claim takes the unclaimed chunks over this, at least one (claimChunks); the schedule's tasks, one
-    /// chunk a thread that joins in, go one at a time
-    std::uint64_t divisor = std::numeric_limits<std::uint64_t>::max();
-    std::uint64_t floatMode = 0; ///< the caller's
-    RunningSystem running;       ///< the caller's
+    std::size_t n = 0, grain = 0;
+    std::uint64_t floatMode = 0; ///< the owner's
+    RunningSystem running;       ///< the owner's (on the next line: a helper reads it after the rest)
+
+    alignas(64) std::atomic<std::size_t> finished{0}; ///< chunks the helpers have done
+
+    alignas(64) std::atomic<bool> owned{false}; ///< taken by a thread posting a loop, until the loop is done
     std::mutex errorMutex;
     std::exception_ptr error;
     std::size_t errorChunk = std::numeric_limits<std::size_t>::max();
-};
 
-/// A posted job's place. A helper enters a slot (visitors + 1) before it reads the job there; the thread
-/// that posted the job, once its chunks are done, puts a mark of the slot's own in it (retiring()), waits
-/// until no helper is inside, and only then empties it. The entering and the marking are sequentially
-/// consistent, so either the helper sees the mark (and leaves without reading the job) or the owner sees
-/// the helper and waits for it. No lock on the way of a fork-join: a mutex taken to post, to find and to
-/// retire a job, as before, cost about a third of the 0.5 us an empty fork-join took at two threads. The
-/// mark keeps the slot from taking a new job (a long one, the schedule's tasks) whose helpers would hold the
-/// waiting owner up. `helpable` copies the job's, so that a thread waiting for tasks, which only helps
-/// loops, does not enter the slot of the tasks' own job again and again.
-struct alignas(64) WorkerPool::Slot {
-    std::atomic<Job*> job{nullptr};
-    std::atomic<int> visitors{0};
-    std::atomic<bool> helpable{true};
-
-    Job* retiring() { return reinterpret_cast<Job*>(this); } // never a job's address: compared, not read
+    /// Keeps the lowest-numbered chunk's error.
+    void fail(std::size_t chunk) {
+        std::lock_guard lock(errorMutex);
+        if (chunk < errorChunk) {
+            errorChunk = chunk;
+            error = std::current_exception();
+        }
+    }
 };
 
 namespace {
 
-/// Slots for jobs posted at once (a loop, the loops nested in it, the schedule's tasks and theirs); a loop
+/// Slots for loops posted at once (a loop, the loops nested in it, the schedule's tasks and theirs); a loop
 /// posted when every one is taken runs on its caller alone.
 constexpr std::size_t kSlots = 64;
 
@@ -153,26 +173,26 @@ int WorkerPool::threadIndex() {
 
 namespace {
 
-constexpr std::uint64_t kBack = std::uint64_t(1) << 32;
-
-/// Claims chunks [first, end) of a job's unclaimed span, from its front or its back: a share of what is left
-/// (what is left over `divisor`, at least one), so that a loop of many chunks costs fewer claims than one a
-/// chunk, each of which moves the span's cache line between the cores (guided self-scheduling: the shares
-/// shrink as the span does, and the last chunks go one at a time, which keeps the threads' ends even; 80
-/// chunks are 16 claims at two threads). The price: a claimed share cannot be taken back, so a helper that
-/// loses its core holding one (a busy machine) keeps the caller waiting for up to a quarter of a loop at two
-/// threads, where it waited for one chunk. False when none is left.
-bool claimChunks(std::atomic<std::uint64_t>& unclaimed, bool fromFront, std::uint64_t divisor,
+/// Claims chunks [first, end) of a slot's unclaimed span, from its front or its back: a share of what is
+/// left (what is left over `divisor`, at least one; a task set's one at a time), so that a loop of many
+/// chunks costs fewer claims than one a chunk, each of which moves the claim word's cache line between the
+/// cores (guided self-scheduling: the shares shrink as the span does, and the last chunks go one at a time,
+/// which keeps the threads' ends even; 80 chunks are 16 claims at two threads). The price: a claimed share
+/// cannot be taken back, so a helper that loses its core holding one (a busy machine) keeps the caller
+/// waiting for up to a quarter of a loop at two threads, where it waited for one chunk. False when none is
+/// left, or when the slot holds tasks and `loopsOnly` is set.
+bool claimChunks(std::atomic<std::uint64_t>& unclaimed, bool fromFront, bool loopsOnly, std::uint64_t divisor,
                  std::size_t& first, std::size_t& end) {
-    std::uint64_t span = unclaimed.load(std::memory_order_relaxed);
+    std::uint64_t word = unclaimed.load(std::memory_order_relaxed);
     for (;;) {
-        const std::uint64_t front = span & (kBack - 1), back = span >> 32;
-        if (front >= back) {
+        const std::uint64_t front = word & kSpan, back = (word >> 32) & kSpan;
+        if (front >= back || (loopsOnly && (word & kTasks))) {
             return false;
         }
-        const std::uint64_t take = std::max<std::uint64_t>(1, (back - front) / divisor);
-        const std::uint64_t claimed = fromFront ? span + take : span - take * kBack;
-        if (unclaimed.compare_exchange_weak(span, claimed, std::memory_order_relaxed)) {
+        const std::uint64_t take = (word & kTasks) ? 1 : std::max<std::uint64_t>(1, (back - front) / divisor);
+        const std::uint64_t claimed = fromFront ? word + take : word - take * kBack;
+        if (unclaimed.compare_exchange_weak(word, claimed, std::memory_order_acquire,
+                                            std::memory_order_relaxed)) {
             first = std::size_t(fromFront ? front : back - take);
             end = first + std::size_t(take);
             return true;
@@ -180,93 +200,125 @@ bool claimChunks(std::atomic<std::uint64_t>& unclaimed, bool fromFront, std::uin
     }
 }
 
-bool anyUnclaimed(const std::atomic<std::uint64_t>& unclaimed) {
-    const std::uint64_t span = unclaimed.load(std::memory_order_relaxed);
-    return (span & (kBack - 1)) < (span >> 32);
-}
-
 } // namespace
 
-void WorkerPool::runChunks(Job& job, bool fromFront) {
-    // take the caller's floating-point mode and running system for as long as this thread works for it
-    const std::uint64_t ownMode = floatMode();
-    if (ownMode != job.floatMode) {
-        setFloatMode(job.floatMode);
-    }
-    RunningSystem& running = runningSystem();
-    const RunningSystem ownRunning = running;
-    running = job.running;
-    std::size_t first = 0, end = 0;
-    while (claimChunks(job.unclaimed, fromFront, job.divisor, first, end)) {
-        for (std::size_t c = first; c < end; ++c) {
-            try {
-                job.call(job.fn, c, c * job.grain, std::min(job.n, (c + 1) * job.grain));
-            } catch (...) {
-                std::lock_guard lock(job.errorMutex);
-                if (c < job.errorChunk) {
-                    job.errorChunk = c;
-                    job.error = std::current_exception();
-                }
+void WorkerPool::runAlone(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call) {
+    // every chunk runs, and the first error is rethrown after: the same state as with helpers
+    std::exception_ptr error;
+    for (std::size_t c = 0; c < chunks; ++c) {
+        try {
+            call(fn, c, c * grain, std::min(n, (c + 1) * grain));
+        } catch (...) {
+            if (!error) {
+                error = std::current_exception();
             }
         }
-        job.finished.fetch_add(end - first, std::memory_order_acq_rel);
     }
-    running = ownRunning;
-    if (ownMode != job.floatMode) {
-        setFloatMode(ownMode);
+    if (error) {
+        std::rethrow_exception(error);
     }
 }
 
-WorkerPool::Slot* WorkerPool::post(Job& job) {
-    job.unclaimed.store(std::uint64_t(job.chunks) << 32, std::memory_order_relaxed);
-    job.floatMode = floatMode();
-    job.running = runningSystem();
+std::size_t WorkerPool::runChunks(Slot& slot, bool owner, bool loopsOnly) {
+    // two shares a thread: claims few enough, and the last ones small enough to even out the ends
+    const std::uint64_t divisor = 2 * std::uint64_t(threads());
+    // a helper takes the owner's floating-point mode and running system for as long as it works for it
+    const std::uint64_t ownMode = floatMode();
+    std::uint64_t mode = ownMode;
+    RunningSystem& running = runningSystem();
+    const RunningSystem ownRunning = running;
+    std::size_t first = 0, end = 0, done = 0;
+    while (claimChunks(slot.unclaimed, owner, loopsOnly, divisor, first, end)) {
+        // the loop is read after every claim: once the loop a helper claimed from is done, its owner may
+        // post the next one in the slot, which the helper's next claim then takes chunks of
+        void* const fn = slot.fn;
+        const ChunkFn call = slot.call;
+        const std::size_t n = slot.n, grain = slot.grain;
+        if (!owner) {
+            if (slot.floatMode != mode) {
+                mode = slot.floatMode;
+                setFloatMode(mode);
+            }
+            running = slot.running;
+        }
+        for (std::size_t c = first; c < end; ++c) {
+            try {
+                call(fn, c, c * grain, std::min(n, (c + 1) * grain));
+            } catch (...) {
+                slot.fail(c);
+            }
+        }
+        done += end - first;
+        if (!owner) {
+            slot.finished.fetch_add(end - first, std::memory_order_release);
+        }
+    }
+    if (!owner) {
+        running = ownRunning;
+        if (mode != ownMode) {
+            setFloatMode(ownMode);
+        }
+    }
+    return done;
+}
+
+WorkerPool::Slot* WorkerPool::post(std::size_t n, std::size_t grain, std::size_t chunks, void* fn,
+                                   ChunkFn call, bool tasks) {
     for (std::size_t s = 0; s < kSlots; ++s) {
         Slot& slot = m_slots[s];
-        Job* empty = nullptr;
-        if (slot.job.load(std::memory_order_relaxed) != nullptr ||
-            !slot.job.compare_exchange_strong(empty, &job)) {
+        if (slot.owned.load(std::memory_order_relaxed) ||
+            slot.owned.exchange(true, std::memory_order_acquire)) {
             continue;
         }
-        slot.helpable.store(job.helpable, std::memory_order_relaxed); // a hint: the job's own is checked
+        slot.fn = fn;
+        slot.call = call;
+        slot.n = n;
+        slot.grain = grain;
+        slot.floatMode = floatMode();
+        slot.running = runningSystem();
+        slot.finished.store(0, std::memory_order_relaxed);
+        slot.error = nullptr;
+        slot.errorChunk = std::numeric_limits<std::size_t>::max();
         std::size_t used = m_slotsUsed.load(std::memory_order_relaxed);
         while (used <= s && !m_slotsUsed.compare_exchange_weak(used, s + 1)) {
         }
-        signal();
+        // published (sequentially consistent, as the parking reads it: see workerMain), then a parked thread
+        // woken; spinning ones see the chunks as they poll the claim words
+        slot.unclaimed.store((std::uint64_t(chunks) << 32) | (tasks ? kTasks : 0));
+        if (m_parked.load() > 0) {
+            signal();
+        }
         return &slot;
     }
     return nullptr;
 }
 
-void WorkerPool::retire(Slot& slot, Job& job) {
-    slot.job.store(slot.retiring());
-    // a helper that entered before may still be about to see the job exhausted
-    waitUntil([&] { return slot.visitors.load() == 0; });
-    slot.job.store(nullptr, std::memory_order_release);
-    if (job.error) {
-        std::rethrow_exception(job.error);
+void WorkerPool::join(Slot& slot, std::size_t chunks, std::size_t mine) {
+    waitUntil([&] { return slot.finished.load(std::memory_order_acquire) == chunks - mine; });
+    std::exception_ptr error = std::move(slot.error);
+    slot.owned.store(false, std::memory_order_release);
+    if (error) {
+        std::rethrow_exception(error);
     }
 }
 
 void WorkerPool::run(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call) {
-    Job job;
-    job.n = n;
-    job.grain = grain;
-    job.chunks = chunks;
-    job.fn = fn;
-    job.call = call;
-    // two shares a thread: claims few enough, and the last ones small enough to even out the ends
-    job.divisor = 2 * std::uint64_t(threads());
-    Slot* slot = post(job);
-    runChunks(job, true);
+    Slot* slot = post(n, grain, chunks, fn, call, false);
     if (!slot) {
-        if (job.error) {
-            std::rethrow_exception(job.error);
-        }
+        runAlone(n, grain, chunks, fn, call);
         return;
     }
-    waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
-    retire(*slot, job);
+    join(*slot, chunks, runChunks(*slot, true, false));
+}
+
+bool WorkerPool::anyClaimable(bool helpableOnly) const {
+    for (std::size_t s = m_slotsUsed.load(); s-- > 0;) {
+        const std::uint64_t word = m_slots[s].unclaimed.load();
+        if (anyLeft(word) && !(helpableOnly && (word & kTasks))) {
+            return true;
+        }
+    }
+    return false;
 }
 
 bool WorkerPool::runSomeChunk(bool helpableOnly) {
@@ -274,20 +326,12 @@ bool WorkerPool::runSomeChunk(bool helpableOnly) {
     // and finishing it lets its caller go on
     for (std::size_t s = m_slotsUsed.load(std::memory_order_acquire); s-- > 0;) {
         Slot& slot = m_slots[s];
-        const Job* glimpse = slot.job.load(std::memory_order_relaxed);
-        if (glimpse == nullptr || glimpse == slot.retiring() ||
-            (helpableOnly && !slot.helpable.load(std::memory_order_relaxed))) {
+        const std::uint64_t word = slot.unclaimed.load(std::memory_order_relaxed);
+        if (!anyLeft(word) || (helpableOnly && (word & kTasks))) {
             continue;
         }
-        slot.visitors.fetch_add(1);
-        Job* job = slot.job.load();
-        const bool useful = job != nullptr && job != slot.retiring() && (!helpableOnly || job->helpable) &&
-                            anyUnclaimed(job->unclaimed);
-        if (useful) {
-            runChunks(*job, false);
-        }
-        slot.visitors.fetch_sub(1, std::memory_order_release);
-        if (useful) {
+        // the slot may hold another loop by the time of the claim: the claim checks `helpableOnly` again
+        if (runChunks(slot, false, helpableOnly) > 0) {
             return true;
         }
     }
@@ -301,11 +345,11 @@ void WorkerPool::workerMain(int index) {
         if (runSomeChunk(false)) {
             continue;
         }
-        // nothing to do: spin a moment for the next loop, then sleep until one is posted
+        // nothing to do: poll the claim words a moment for the next loop, then sleep until one is posted
         auto start = std::chrono::steady_clock::now();
         bool posted = false;
         for (unsigned k = 0;; ++k) {
-            if (m_epoch.load(std::memory_order_acquire) != seen) {
+            if (m_epoch.load(std::memory_order_acquire) != seen || anyClaimable(false)) {
                 posted = true;
                 break;
             }
@@ -326,12 +370,15 @@ void WorkerPool::workerMain(int index) {
             return;
         }
         if (!posted) {
-            // parked counted before the epoch is read again, and signal() bumps the epoch before it reads
-            // parked (both sequentially consistent): either this thread sees the new epoch or signal() sees
-            // it parked and notifies under the mutex, which it holds until it sleeps
+            // parked counted before the claim words are read again, and post() publishes its chunks before
+            // it reads parked (all sequentially consistent): either this thread sees the chunks or post()
+            // sees it parked and signals, bumping the epoch past `seen` and notifying under the mutex, which
+            // this thread holds until it sleeps
             std::unique_lock lock(m_mutex);
             m_parked.fetch_add(1);
-            m_wake.wait(lock, [&] { return m_stop.load() || m_epoch.load() != seen; });
+            if (!anyClaimable(false)) {
+                m_wake.wait(lock, [&] { return m_stop.load() || m_epoch.load() != seen; });
+            }
             m_parked.fetch_sub(1, std::memory_order_relaxed);
             if (m_stop.load()) {
                 return;
@@ -372,10 +419,12 @@ void WorkerPool::awaitReady(const std::function<bool()>& ready) {
             continue;
         }
         std::unique_lock lock(m_mutex);
-        m_parked.fetch_add(1); // before the epoch is read again: see workerMain
+        m_parked.fetch_add(1); // before the claim words and the epoch are read again: see workerMain
         // (the timeout only bounds the cost of a wake-up this reasoning missed)
-        m_wake.wait_for(lock, std::chrono::milliseconds(1),
-                        [&] { return ready() || m_epoch.load() != seen; });
+        if (!anyClaimable(true)) {
+            m_wake.wait_for(lock, std::chrono::milliseconds(1),
+                            [&] { return ready() || m_epoch.load() != seen; });
+        }
         m_parked.fetch_sub(1, std::memory_order_relaxed);
     }
 }
@@ -454,21 +503,17 @@ void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_
     }
     TaskSet tasks{this, count, &ready, &task, std::make_unique<std::atomic<bool>[]>(count)};
     // one chunk per thread that joins in: each runs ready tasks until none is left to claim
-    Job job;
-    job.n = std::size_t(threads());
-    job.grain = 1;
-    job.chunks = job.n;
-    job.helpable = false;
-    job.fn = &tasks;
-    job.call = [](void* f, std::size_t, std::size_t, std::size_t) { static_cast<TaskSet*>(f)->work(); };
-    Slot* slot = post(job); // none free: the caller runs every task, in the order they come ready
-    runChunks(job, true);
-    awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });
-    waitUntil([&] { return job.finished.load(std::memory_order_acquire) == job.chunks; });
-    if (slot) {
-        retire(*slot, job);
-    } else if (job.error) {
-        std::rethrow_exception(job.error); // what retire rethrows (an error of ready(), met in work())
+    const std::size_t chunks = std::size_t(threads());
+    const ChunkFn call = [](void* f, std::size_t, std::size_t, std::size_t) {
+        static_cast<TaskSet*>(f)->work();
+    };
+    Slot* slot = post(chunks, 1, chunks, &tasks, call, true);
+    if (!slot) {
+        runAlone(chunks, 1, chunks, &tasks, call); // the caller runs every task, in the order they come ready
+    } else {
+        const std::size_t mine = runChunks(*slot, true, false);
+        awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });
+        join(*slot, chunks, mine); // what it rethrows: an error of ready(), met in work()
     }
     if (tasks.error) {
         std::rethrow_exception(tasks.error);

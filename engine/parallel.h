@@ -8,7 +8,7 @@
 // in its cache, loop after loop), a share of what is left at a time (what is left over twice the thread
 // count, at least one chunk: a loop of 80 chunks is 16 claims at two threads, not 80, each moving the claims'
 // cache line between cores), so which thread runs a chunk varies, but a chunk's work does not depend on it. A
-// loop of 2^32 chunks or more runs on the caller alone, and so does one posted while loops are nested so
+// loop of 2^31 chunks or more runs on the caller alone, and so does one posted while loops are nested so
 // deep that the pool's 64 slots for posted loops are all taken. A reduction keeps one partial per chunk and
 // adds the partials in chunk order after the loop, so a sum has the same bits at 1 thread and at 16. With one
 // thread the chunks simply run in order on the caller, through the same code.
@@ -72,26 +72,22 @@ public:
     template <class F>
     void forChunks(std::size_t n, std::size_t grain, F&& fn) {
         const std::size_t chunks = chunkCount(n, grain);
-        if (chunks <= 1 || m_workers.empty() || std::uint64_t(chunks) > 0xffffffffu) {
-            // on one thread too, every chunk runs and the first error is rethrown after: the same state
-            std::exception_ptr error;
-            for (std::size_t c = 0; c < chunks; ++c) {
-                try {
-                    fn(c, c * grain, std::min(n, (c + 1) * grain));
-                } catch (...) {
-                    if (!error) {
-                        error = std::current_exception();
-                    }
-                }
-            }
-            if (error) {
-                std::rethrow_exception(error);
+        if (chunks <= 1) {
+            if (chunks == 1) {
+                fn(std::size_t(0), std::size_t(0), n);
             }
             return;
         }
         using Fn = std::remove_reference_t<F>;
-        run(n, grain, chunks, const_cast<void*>(static_cast<const void*>(&fn)),
-            [](void* f, std::size_t c, std::size_t b, std::size_t e) { (*static_cast<Fn*>(f))(c, b, e); });
+        void* const f = const_cast<void*>(static_cast<const void*>(&fn));
+        const ChunkFn call = [](void* g, std::size_t c, std::size_t b, std::size_t e) {
+            (*static_cast<Fn*>(g))(c, b, e);
+        };
+        if (m_workers.empty() || std::uint64_t(chunks) > 0x7fffffffu) {
+            runAlone(n, grain, chunks, f, call); // on one thread too, every chunk runs: the same state
+            return;
+        }
+        run(n, grain, chunks, f, call);
     }
 
     /// Calls fn(i) for every i of [0, n), in chunks of `grain`.
@@ -156,35 +152,41 @@ public:
 
 private:
     using ChunkFn = void (*)(void* fn, std::size_t chunk, std::size_t begin, std::size_t end);
-    struct Job;
+    struct Slot;
     struct TaskSet;
 
     void run(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call);
+    /// Runs every chunk on this thread, in order; rethrows the lowest-numbered chunk's error after.
+    static void runAlone(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call);
     void workerMain(int index);
-    /// Runs the free chunks of some posted job (only helpable ones if `helpableOnly`); false if none was.
+    /// Runs the free chunks of some posted loop (only helpable ones if `helpableOnly`); false if none was.
     bool runSomeChunk(bool helpableOnly);
-    /// Runs chunks of the job until none is left to claim, from its front (the thread that posted it) or
-    /// its back (a helper).
-    void runChunks(Job& job, bool fromFront);
-    struct Slot;
-    /// Publishes a job in a free slot and wakes the workers; null when every slot is taken (the caller then
-    /// runs the loop alone: the same chunks, the same bits).
-    Slot* post(Job& job);
-    /// Takes the job out of its slot once no helper is inside it; rethrows its first error.
-    void retire(Slot& slot, Job& job);
-    /// Bumps the epoch and wakes the parked threads, workers and those asleep in awaitReady (a job was
-    /// posted, a task has ended, an Awake began).
+    /// Whether some posted loop has chunks left to claim (helpable ones only if `helpableOnly`).
+    bool anyClaimable(bool helpableOnly) const;
+    /// Runs chunks of the slot's loop until none is left to claim, from its front (`owner`: the thread that
+    /// posted it) or its back (a helper, which counts them in the slot's `finished`; none of the schedule's
+    /// tasks if `loopsOnly`); returns how many it ran.
+    std::size_t runChunks(Slot& slot, bool owner, bool loopsOnly);
+    /// Takes a free slot, writes the loop into it and publishes its chunks (waking parked threads); null when
+    /// every slot is taken (the caller then runs the loop alone: the same chunks, the same bits).
+    Slot* post(std::size_t n, std::size_t grain, std::size_t chunks, void* fn, ChunkFn call, bool tasks);
+    /// Waits until the helpers have done the chunks the owner did not (`mine`), frees the slot and rethrows
+    /// the loop's first error.
+    void join(Slot& slot, std::size_t chunks, std::size_t mine);
+    /// Bumps the epoch and wakes the parked threads, workers and those asleep in awaitReady (a loop was
+    /// posted while one was parked, a task has ended, an Awake began).
     void signal();
     /// Waits until ready() holds, helping with loops meanwhile, then sleeping.
     void awaitReady(const std::function<bool()>& ready);
 
     std::vector<std::thread> m_workers;
-    /// The posted jobs, one a slot, taken and read without a lock (see Slot)
+    /// The posted loops, one a slot, taken and read without a lock (see Slot)
     std::unique_ptr<Slot[]> m_slots;
     std::atomic<std::size_t> m_slotsUsed{0}; ///< slots ever taken: helpers look at [0, this) only
     std::mutex m_mutex;                      ///< guards parking
     std::condition_variable m_wake;          ///< parked threads wait here
-    /// bumped by signal(): when a job is posted, a task ends, an Awake begins, the pool stops
+    /// bumped by signal(): when a loop is posted while a thread is parked, a task ends, an Awake begins, the
+    /// pool stops
     std::atomic<std::uint64_t> m_epoch{0};
     std::atomic<int> m_parked{0};
     std::atomic<bool> m_stop{false};

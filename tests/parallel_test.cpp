@@ -136,6 +136,35 @@ TEST(WorkerPool, NestedLoopsFinish) {
     }
 }
 
+// Loop after loop in the same slot, of other sizes and grains: a helper that finished its part of one loop
+// may claim from the next one posted there, and must run the next one's work, not the one it read before
+// (a helper that kept the last loop's function and bounds ran the next loop's chunks with them: caught at 3,
+// 7 and 16 threads, where a helper loses its core between two claims; at 2 it was not).
+TEST(WorkerPool, LoopAfterLoopEachRunsItsOwnChunksOnce) {
+    constexpr int kRounds = 20000;
+    constexpr std::size_t kN[2] = {40, 90}, kGrain[2] = {4, 3};
+    for (int threads : {2, 3, 7, 16}) {
+        WorkerPool pool(threads);
+        std::array<std::vector<std::atomic<int>>, 2> hits{std::vector<std::atomic<int>>(kN[0]),
+                                                          std::vector<std::atomic<int>>(kN[1])};
+        long wrong = 0;
+        for (int round = 0; round < kRounds && wrong == 0; ++round) {
+            const int which = round % 2;
+            pool.forChunks(kN[which], kGrain[which], [&](std::size_t, std::size_t b, std::size_t e) {
+                for (std::size_t i = b; i < e; ++i) {
+                    hits[which][i].fetch_add(1, std::memory_order_relaxed);
+                }
+            });
+            for (int loop = 0; loop < 2; ++loop) {
+                for (std::atomic<int>& h : hits[loop]) {
+                    wrong += h.exchange(0, std::memory_order_relaxed) != (loop == which ? 1 : 0);
+                }
+            }
+        }
+        EXPECT_EQ(wrong, 0) << threads << " threads";
+    }
+}
+
 // Loops nested deeper than the pool has slots for posted loops (64): those posted when every slot is taken
 // run on their callers alone, every chunk once, and an error from the deepest still reaches the top.
 TEST(WorkerPool, LoopsNestedDeeperThanItsSlotsRunEveryChunkOnce) {
