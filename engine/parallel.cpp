@@ -93,21 +93,23 @@ bool anyLeft(std::uint64_t word) {
 
 /// A posted loop's place, and the loop itself. Slots live as long as the pool, so a helper never reads freed
 /// memory and the owner need not wait for helpers to leave. The claim word says everything a claim needs:
-/// a helper that read it for one loop and claims from it once it holds another (the owner reused the slot
-/// meanwhile) claims chunks of the loop that is there, which is right. A helper reads the rest of the loop
-/// after each claim: until the chunks it claimed are done the owner cannot reuse the slot, and the claim (an
-/// acquiring exchange) sees what the owner wrote before it published the chunks.
+/// a helper that read it for one loop and claims from it once it holds another (the slot freed and taken for
+/// another loop meanwhile, by any thread) claims chunks of the loop that is there, which is right. A helper
+/// reads the rest of the loop after each claim: until the chunks it claimed are done the slot cannot be
+/// freed, and the claim (an acquiring exchange) sees what the owner wrote before it published the chunks.
 ///
 /// What a fork-join costs is cache lines moving between the cores (a round trip took 0.57-0.69 us between
 /// this machine's two virtual cores, two threads bouncing a flag). So the loop shares its line with the claim
 /// word, and a helper that sees the chunks has the loop with them; the helpers' count of finished chunks has
-/// a line of its own, which only they write (the owner counts its own chunks); and the owner's hold on the
-/// slot is on a line of its own. Before, the loop was on the owner's stack, a helper counted itself into the
-/// slot before it read the loop, and the owner, its chunks done, waited for the helpers to leave: a move of
-/// the slot's line more on every fork-join's way. Alternating, five runs of five repetitions (medians, two
-/// threads): four chunks of a little work (`BM_PoolForkJoin/2`) 1.35-1.44 -> 1.31-1.35 us, 80 small chunks
+/// a line of its own, which the owner only clears when it posts (it counts its own chunks apart); and the
+/// owner's hold on the slot shares a line with the loop's errors only, which helpers touch when a chunk
+/// throws. Before, the loop was on the owner's stack, a helper counted itself into the slot before it read
+/// the loop, and the owner, its chunks done, waited for the helpers to leave: a move of the slot's line more
+/// on every fork-join's way. Alternating, five runs of five repetitions (medians, two threads): four chunks
+/// of a little work (`BM_PoolForkJoin/2`) 1.35-1.44 -> 1.31-1.35 us, 80 small chunks
 /// (`BM_PoolForkJoinManyChunks/2`) 2.14-2.38 -> 1.91-2.01 us, an empty fork-join the same (0.24-0.33 us);
-/// the curtain's step within the noise.
+/// the curtain's step within the noise. Idle workers poll the claim words; beyond two threads each poller's
+/// copy of a word is one more to invalidate at a claim, which this machine cannot measure.
 struct WorkerPool::Slot {
     alignas(64) std::atomic<std::uint64_t> unclaimed{0}; ///< the claim word (above)
     // the loop: written by the owner before it publishes the chunks, read by a helper holding a claim
@@ -115,7 +117,8 @@ struct WorkerPool::Slot {
     ChunkFn call = nullptr;
     std::size_t n = 0, grain = 0;
     std::uint64_t floatMode = 0; ///< the owner's
-    RunningSystem running;       ///< the owner's (on the next line: a helper reads it after the rest)
+    std::uint64_t serial = 0;    ///< loops posted in this slot so far: tells a helper the loop has changed
+    alignas(64) RunningSystem running; ///< the owner's (read by a helper after the rest of the loop)
 
     alignas(64) std::atomic<std::size_t> finished{0}; ///< chunks the helpers have done
 
@@ -228,12 +231,16 @@ std::size_t WorkerPool::runChunks(Slot& slot, bool owner, bool loopsOnly) {
     RunningSystem& running = runningSystem();
     const RunningSystem ownRunning = running;
     std::size_t first = 0, end = 0, done = 0;
+    std::uint64_t loop = 0;
     while (claimChunks(slot.unclaimed, owner, loopsOnly, divisor, first, end)) {
-        // the loop is read after every claim: once the loop a helper claimed from is done, its owner may
-        // post the next one in the slot, which the helper's next claim then takes chunks of
+        // the loop is read after every claim: once the loop a helper claimed from is done, another may be
+        // posted in the slot, which the helper's next claim then takes chunks of (and then it goes back: a
+        // thread waiting for tasks looks again at what it waits for)
         void* const fn = slot.fn;
         const ChunkFn call = slot.call;
         const std::size_t n = slot.n, grain = slot.grain;
+        const bool another = done > 0 && slot.serial != loop;
+        loop = slot.serial;
         if (!owner) {
             if (slot.floatMode != mode) {
                 mode = slot.floatMode;
@@ -251,6 +258,9 @@ std::size_t WorkerPool::runChunks(Slot& slot, bool owner, bool loopsOnly) {
         done += end - first;
         if (!owner) {
             slot.finished.fetch_add(end - first, std::memory_order_release);
+        }
+        if (another) {
+            break;
         }
     }
     if (!owner) {
@@ -275,11 +285,12 @@ WorkerPool::Slot* WorkerPool::post(std::size_t n, std::size_t grain, std::size_t
         slot.n = n;
         slot.grain = grain;
         slot.floatMode = floatMode();
+        ++slot.serial;
         slot.running = runningSystem();
         slot.finished.store(0, std::memory_order_relaxed);
         slot.error = nullptr;
         slot.errorChunk = std::numeric_limits<std::size_t>::max();
-        std::size_t used = m_slotsUsed.load(std::memory_order_relaxed);
+        std::size_t used = m_slotsUsed.load(); // sequentially consistent, as the parking reads it
         while (used <= s && !m_slotsUsed.compare_exchange_weak(used, s + 1)) {
         }
         // published (sequentially consistent, as the parking reads it: see workerMain), then a parked thread
@@ -420,12 +431,15 @@ void WorkerPool::awaitReady(const std::function<bool()>& ready) {
         }
         std::unique_lock lock(m_mutex);
         m_parked.fetch_add(1); // before the claim words and the epoch are read again: see workerMain
+        struct Unpark {        // also when ready() throws
+            std::atomic<int>& parked;
+            ~Unpark() { parked.fetch_sub(1, std::memory_order_relaxed); }
+        } unpark{m_parked};
         // (the timeout only bounds the cost of a wake-up this reasoning missed)
         if (!anyClaimable(true)) {
             m_wake.wait_for(lock, std::chrono::milliseconds(1),
                             [&] { return ready() || m_epoch.load() != seen; });
         }
-        m_parked.fetch_sub(1, std::memory_order_relaxed);
     }
 }
 
@@ -512,8 +526,12 @@ void WorkerPool::runTasks(std::size_t count, const std::function<bool(std::size_
         runAlone(chunks, 1, chunks, &tasks, call); // the caller runs every task, in the order they come ready
     } else {
         const std::size_t mine = runChunks(*slot, true, false);
-        awaitReady([&] { return tasks.ended.load(std::memory_order_acquire) == count; });
-        join(*slot, chunks, mine); // what it rethrows: an error of ready(), met in work()
+        // every task ended, or (ready() having thrown) every thread out of work(): then join rethrows it
+        awaitReady([&] {
+            return tasks.ended.load(std::memory_order_acquire) == count ||
+                   slot->finished.load(std::memory_order_acquire) == chunks - mine;
+        });
+        join(*slot, chunks, mine);
     }
     if (tasks.error) {
         std::rethrow_exception(tasks.error);

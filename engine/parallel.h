@@ -165,7 +165,8 @@ private:
     bool anyClaimable(bool helpableOnly) const;
     /// Runs chunks of the slot's loop until none is left to claim, from its front (`owner`: the thread that
     /// posted it) or its back (a helper, which counts them in the slot's `finished`; none of the schedule's
-    /// tasks if `loopsOnly`); returns how many it ran.
+    /// tasks if `loopsOnly`; after one claim of a loop posted there since, it stops); returns how many it
+    /// ran.
     std::size_t runChunks(Slot& slot, bool owner, bool loopsOnly);
     /// Takes a free slot, writes the loop into it and publishes its chunks (waking parked threads); null when
     /// every slot is taken (the caller then runs the loop alone: the same chunks, the same bits).

@@ -229,6 +229,29 @@ TEST(WorkerPool, TasksPostedWithEverySlotTakenRunAndKeepTheirErrors) {
     }
 }
 
+// A task whose readiness throws every time it is asked: the tasks before it run, the error reaches the
+// caller, and nothing waits for the task that never runs (runTasks waited for every task to end: a hang).
+TEST(WorkerPool, TasksWhoseReadinessAlwaysThrowsEndWithTheError) {
+    for (const int threads : {2, 4}) {
+        WorkerPool pool(threads);
+        std::atomic<int> ran{0};
+        const std::function<bool(std::size_t)> ready = [&](std::size_t i) {
+            if (i == 1) {
+                throw std::runtime_error("never ready");
+            }
+            return true;
+        };
+        const std::function<void(std::size_t)> task = [&](std::size_t) { ran.fetch_add(1); };
+        try {
+            pool.runTasks(3, ready, task);
+            ADD_FAILURE() << "no error at " << threads << " threads";
+        } catch (const std::runtime_error& e) {
+            EXPECT_STREQ(e.what(), "never ready") << threads << " threads";
+        }
+        EXPECT_EQ(ran.load(), 1) << threads << " threads"; // task 0; the scan stops at task 1's error
+    }
+}
+
 // Workers kept awake (WorkerPool::Awake, held by a thread-count trial's runs on one thread) still take the
 // loops posted meanwhile and after, nested ones too, and the pool stops when it goes, workers asleep or not.
 TEST(WorkerPool, AwakeWorkersStillTakeLoopsAndStop) {
