@@ -2,7 +2,9 @@
 // back by the renderer, and, for the ratio, a raw EGL program drawing the same triangles (the cloth and
 // the ground) with the renderer's own shader and reading them back: the difference is the renderer's
 // work around the draw (normals, uploads, state), not its shading. Then the curtain and avalanche frames
-// as the demos have them (shadows, 4x multisampling) against the same frames with both off.
+// as the demos have them (shadows, 4x multisampling) against the same frames with both off. The
+// renderer's frames report their two parts: draw_ms (drawn and waited for) and read_ms (the multisampled
+// image resolved, read back and turned top row first).
 //   build/tests/bench/tumble_bench --benchmark_filter=Render --benchmark_repetitions=5
 
 #include "app/gl_context.h"
@@ -18,6 +20,7 @@
 #include <GLES3/gl3.h>
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -46,12 +49,21 @@ void renderFrames(benchmark::State& state, const std::string& demo, const std::v
     StepContext ctx;
     std::vector<std::uint8_t> pixels;
     int w = 0, h = 0;
+    // the frame in two parts: drawn (renderWorld waits for it, glFinish), then resolved and read back
+    using Clock = std::chrono::steady_clock;
+    double drawMs = 0.0, readMs = 0.0;
     for (auto _ : state) {
+        const auto start = Clock::now();
         renderWorld(sim->world(), ctx);
+        const auto drawn = Clock::now();
         lastImage(sim->world(), w, h, pixels);
         benchmark::DoNotOptimize(pixels.data());
+        drawMs += std::chrono::duration<double, std::milli>(drawn - start).count();
+        readMs += std::chrono::duration<double, std::milli>(Clock::now() - drawn).count();
     }
     state.counters["pixels"] = double(w) * double(h);
+    state.counters["draw_ms"] = drawMs / double(state.iterations());
+    state.counters["read_ms"] = readMs / double(state.iterations());
 }
 
 const std::vector<std::string> kPlain{"render.shadows=false", "render.msaa=1"};
