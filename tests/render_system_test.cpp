@@ -389,6 +389,63 @@ TEST(RenderSystem, AnObjectLeftOfTheTargetAppearsOnTheLeft) {
     }
 }
 
+TEST(RenderSystem, EveryClosedShapeShowsTheSideThatFacesTheCamera) {
+    // Closed shapes are drawn with their back faces culled. Each shape below, centred at (0, 1, 0), is seen
+    // from above and from the front (2D bodies are seen from the front), with a thin green bar through it
+    // across the view, 0.1 m in from its centre towards the camera: the middle of the image shows the
+    // shape's near side, red. Were any of its triangles wound inward, they would be culled where they face
+    // the camera, and the middle would show through them the bar (caught the sphere, the cylinder and the
+    // balls wound inward in part; with the shadow pass culled alike, a shape alone would look the same)
+    const std::string cubeObj = test::writeTemp(
+        "cube.obj", "v -0.3 -0.3 -0.3\nv 0.3 -0.3 -0.3\nv 0.3 0.3 -0.3\nv -0.3 0.3 -0.3\nv -0.3 -0.3 0.3\n"
+                    "v 0.3 -0.3 0.3\nv 0.3 0.3 0.3\nv -0.3 0.3 0.3\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\n"
+                    "f 1 6 5\nf 1 2 6\nf 4 7 3\nf 4 8 7\nf 1 8 4\nf 1 5 8\nf 2 7 6\nf 2 3 7\n");
+    const std::string rope =
+        "[[entity]]\nname = \"bob\"\n[entity.springs]\nthickness = 0.3\nmasses = [ { x = "
+        "[0.0, 1.0, 0.0], m = 1.0, pinned = true }, { x = [0.001, 1.0, 0.0], m = 1.0, "
+        "pinned = true } ]\nlinks = [ { a = 0, b = 1 } ]\n";
+    auto body = [](const std::string& table) {
+        return "[[entity]]\nname = \"shape\"\n[entity.transform]\nposition = [0.0, 1.0, 0.0]\n" + table +
+               "color = [0.9, 0.2, 0.2]\n";
+    };
+    const std::vector<std::pair<std::string, std::string>> shapes = {
+        {"sphere", body("[entity.rigid_body]\nshape = \"sphere\"\nradius = 0.3\n")},
+        {"box", body("[entity.rigid_body]\nshape = \"box\"\nhalf_extents = [0.3, 0.2, 0.3]\n")},
+        {"cylinder", body("[entity.rigid_body]\nshape = \"cylinder\"\nradius = 0.3\nheight = 0.4\n")},
+        {"capsule", body("[entity.rigid_body]\nshape = \"capsule\"\nradius = 0.2\nheight = 0.4\n")},
+        {"convex", body("[entity.rigid_body]\nshape = \"convex\"\nmesh = \"" + cubeObj + "\"\n")},
+        {"2d box", body("[entity.rigid_body_2d]\nshape = \"box\"\nhalf_extents = [0.3, 0.2]\n")},
+        {"2d circle", body("[entity.rigid_body_2d]\nshape = \"circle\"\nradius = 0.3\n")},
+        {"2d polygon", body("[entity.rigid_body_2d]\nshape = \"polygon\"\nvertices = [[-0.3, -0.2], [0.3, "
+                            "-0.2], [0.3, 0.2], [-0.3, 0.2]]\n")},
+        {"masses of a rope", rope},
+    };
+    for (const int msaa : {1, 4}) {
+        for (const auto& [name, entity] : shapes) {
+            for (const bool fromAbove : {true, false}) {
+                const std::string view =
+                    fromAbove ? "eye = [0.0, 3.0, 0.0001]\nlight_direction = [0.0, -1.0, 0.0]\n"
+                              : "eye = [0.0, 1.0, 3.0]\nlight_direction = [0.0, 0.0, -1.0]\n";
+                const std::string scene =
+                    "[scene]\nname = \"closed\"\ngravity = [0, 0, 0]\n[camera]\ntarget = [0.0, 1.0, 0.0]\n" +
+                    view.substr(0, view.find('\n') + 1) +
+                    "[render]\nwidth = 160\nheight = 120\nmsaa = " + std::to_string(msaa) + "\n" +
+                    view.substr(view.find('\n') + 1) + kPlainLook + entity +
+                    test::boxEntity("bar", fromAbove ? "[0.0, 1.1, 0.0]" : "[0.0, 1.0, 0.1]",
+                                    fromAbove ? "[1.0, 0.02, 0.05]" : "[1.0, 0.05, 0.02]", "[0.1, 0.9, 0.1]");
+                const Image img = renderOnce(scene);
+                for (const int x : {74, 80, 86}) {
+                    const std::uint8_t* p = img.at(x, 60);
+                    EXPECT_GT(int(p[0]), int(p[1]) + 100)
+                        << name << (fromAbove ? " from above, " : " from the front, ") << msaa
+                        << " samples: red at " << x << ", 60, not " << int(p[0]) << " " << int(p[1]) << " "
+                        << int(p[2]);
+                }
+            }
+        }
+    }
+}
+
 TEST(RenderSystem, AParticleBurstShowsItsColour) {
     const Image img = renderOnce(std::string(kCamera) + R"(
 [[entity]]
