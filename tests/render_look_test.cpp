@@ -114,6 +114,33 @@ TEST(RenderLook, TheSkyShowsWhereverTheGroundLeavesItSeen) {
     EXPECT_LT(int(ceiling.at(320, 10)[2]), 150);
 }
 
+TEST(RenderLook, WhatIsInFrontOfTheSkyHidesItInDepthOrder) {
+    // with several samples the sky is drawn first, under the scene, and with one last, behind it: either way
+    // a red ball 6 m away hides a green box 10 m away drawn after it, both hide the sky, and the sky around
+    // them is the sky of the same view without them (caught the depth test left off after the sky)
+    for (const int msaa : {1, 4}) {
+        const std::string view = head("[0.0, 1.0, 0.0]", "[0.0, 1.0, -10.0]",
+                                      "shadows = false\nmsaa = " + std::to_string(msaa) + "\n");
+        const Image sky = renderOnce(view);
+        const Image img =
+            renderOnce(view +
+                       "[[entity]]\nname = \"ball\"\n[entity.transform]\nposition = [0.0, 1.0, -6.0]\n"
+                       "[entity.rigid_body]\nshape = \"sphere\"\nradius = 0.5\ncolor = [0.9, 0.1, 0.1]\n" +
+                       test::boxEntity("box", "[0.0, 1.0, -10.0]", "[2.0, 2.0, 0.5]", "[0.1, 0.9, 0.1]"));
+        const std::string at = std::to_string(msaa) + " samples: ";
+        const std::uint8_t* middle = img.at(320, 240);
+        EXPECT_GT(int(middle[0]), int(middle[1]) + 60) << at << "the ball in the middle";
+        const std::uint8_t* box = img.at(320, 140);
+        EXPECT_GT(int(box[1]), int(box[0]) + 60) << at << "the box above the ball";
+        for (const auto& [x, y] : {std::pair{20, 20}, std::pair{620, 200}, std::pair{100, 460}}) {
+            for (int c = 0; c < 3; ++c) {
+                EXPECT_NEAR(int(img.at(x, y)[c]), int(sky.at(x, y)[c]), 1)
+                    << at << "the sky at " << x << ", " << y;
+            }
+        }
+    }
+}
+
 /// A 10 m square slab of colour `colour`, its top at y = 0.5, seen from 2 m above its top.
 std::string slabFromAbove(const std::string& render, const std::string& colour) {
     return head("[0.0, 2.5, 0.0001]", "[0.0, 0.0, 0.0]", render + "shadows = false\n") +
