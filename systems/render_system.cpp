@@ -1559,6 +1559,9 @@ void renderWorld(World& world, const StepContext& ctx) {
         light = {(*scene.lightDirection)[0], (*scene.lightDirection)[1], (*scene.lightDirection)[2]};
     }
     light = light * (1.0 / length(light));
+    // which faces the culling of closed shapes takes for back ones (a host's context may have set others)
+    glFrontFace(GL_CCW);
+    glCullFace(GL_BACK);
     const std::optional<Mat4> lightViewProjection =
         scene.renderShadows
             ? std::optional<Mat4>(drawShadowMap(world, r, ctx, light, output->wireframe, pool))

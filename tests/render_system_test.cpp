@@ -12,6 +12,7 @@
 #include "tests/render_support.h"
 #include "tests/test_support.h"
 
+#include <GLES3/gl3.h>
 #include <gtest/gtest.h>
 #include <stb/stb_image.h>
 
@@ -443,6 +444,28 @@ TEST(RenderSystem, EveryClosedShapeShowsTheSideThatFacesTheCamera) {
                 }
             }
         }
+    }
+}
+
+TEST(RenderSystem, ClosedShapesShowTheirNearSideWhateverCullingTheContextWasLeftWith) {
+    // a context shared with a host (the embedding API) may be left culling front faces, or taking clockwise
+    // ones for front: a frame sets what its culling needs. A ball with a green bar through it, seen from
+    // above, as in the test before, drawn again after the context was left so (caught the frame relying on
+    // GL's defaults)
+    auto sim = test::renderedSimulation(
+        lookingDown(3.0, 160, 120, 4, true) +
+        "[[entity]]\nname = \"ball\"\n[entity.transform]\nposition = [0.0, 1.0, 0.0]\n[entity.rigid_body]\n"
+        "shape = \"sphere\"\nradius = 0.3\ncolor = [0.9, 0.2, 0.2]\n" +
+        test::boxEntity("bar", "[0.0, 1.1, 0.0]", "[1.0, 0.02, 0.05]", "[0.1, 0.9, 0.1]"));
+    sim->runFrame();
+    for (const auto& [front, cull] : {std::pair{GL_CW, GL_BACK}, std::pair{GL_CCW, GL_FRONT}}) {
+        glFrontFace(GLenum(front));
+        glCullFace(GLenum(cull));
+        sim->runFrame();
+        const Image img = test::lastImageOf(*sim);
+        const std::uint8_t* p = img.at(80, 60);
+        EXPECT_GT(int(p[0]), int(p[1]) + 100) << "left with " << (front == GL_CW ? "GL_CW" : "GL_FRONT")
+                                              << ": red, not " << int(p[0]) << " " << int(p[1]);
     }
 }
 
