@@ -392,11 +392,12 @@ TEST(RenderSystem, AnObjectLeftOfTheTargetAppearsOnTheLeft) {
 
 TEST(RenderSystem, EveryClosedShapeShowsTheSideThatFacesTheCamera) {
     // Closed shapes are drawn with their back faces culled. Each shape below, centred at (0, 1, 0), is seen
-    // from above and from the front (2D bodies are seen from the front), with a thin green bar through it
-    // across the view, 0.1 m in from its centre towards the camera: the middle of the image shows the
-    // shape's near side, red. Were any of its triangles wound inward, they would be culled where they face
-    // the camera, and the middle would show through them the bar (caught the sphere, the cylinder and the
-    // balls wound inward in part; with the shadow pass culled alike, a shape alone would look the same)
+    // from above and from the front, with a thin green bar through it across the view, 0.1 m in from its
+    // centre towards the camera: the middle of the image shows the shape's near side, red. Were any of its
+    // triangles wound inward, they would be culled where they face the camera, and the middle would show
+    // through them the bar (caught the meshes as they were wound before: the sphere, cylinder, capsule,
+    // 2D circle and balls; and every kind wound the wrong way round. With the shadow pass culled alike, a
+    // shape alone would look the same)
     const std::string cubeObj = test::writeTemp(
         "cube.obj", "v -0.3 -0.3 -0.3\nv 0.3 -0.3 -0.3\nv 0.3 0.3 -0.3\nv -0.3 0.3 -0.3\nv -0.3 -0.3 0.3\n"
                     "v 0.3 -0.3 0.3\nv 0.3 0.3 0.3\nv -0.3 0.3 0.3\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\n"
