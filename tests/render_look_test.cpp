@@ -12,6 +12,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <utility>
 
 namespace tumble {
 namespace {
@@ -137,6 +138,49 @@ TEST(RenderLook, WhatIsInFrontOfTheSkyHidesItInDepthOrder) {
                 EXPECT_NEAR(int(img.at(x, y)[c]), int(sky.at(x, y)[c]), 1)
                     << at << "the sky at " << x << ", " << y;
             }
+        }
+    }
+}
+
+TEST(RenderLook, NothingOfTheFrameBeforeIsLeftOnceTheSkyAndTheGroundAreDrawn) {
+    // with the sky gradient the colour is not cleared: the sky and the ground must cover every pixel. A
+    // frame filled with a red box close up, then the camera turned to each view: over the ground looking
+    // level, straight down at it, from under it, at the sky alone; each image matches the same view drawn
+    // by a renderer that never drew the box close up (caught the sky's rows cut 5 rows short of the ground)
+    const std::string things =
+        test::planeEntity("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "[0.5, 0.5, 0.5]") +
+        test::boxEntity("box", "[0.0, 1.0, 0.0]", "[1.0, 1.0, 1.0]", "[0.9, 0.1, 0.1]");
+    using View = std::pair<std::array<double, 3>, std::array<double, 3>>;
+    const View closeUp{{0.0, 1.0, 1.3}, {0.0, 1.0, 0.0}};
+    const std::array<View, 5> views{
+        View{{0.0, 1.0, 20.0}, {0.0, 1.0, 0.0}}, View{{0.0, 12.0, 0.01}, {0.0, 0.0, 0.0}},
+        View{{3.0, -2.0, 15.0}, {0.0, 0.0, 0.0}}, View{{0.0, 0.5, 30.0}, {0.0, 40.0, 0.0}},
+        View{{5.0, 3.0, 5.0}, {-20.0, 0.0, -20.0}}};
+    const auto look = [](Simulation& sim, const View& view) {
+        RenderOutput& out = sim.world().resource<RenderOutput>();
+        out.cameraSet = true;
+        out.eye = view.first;
+        out.target = view.second;
+        sim.runFrame();
+        return test::lastImageOf(sim);
+    };
+    for (const int msaa : {1, 4}) {
+        const std::string text = head("[0.0, 1.0, 20.0]", "[0.0, 1.0, 0.0]",
+                                      "shadows = false\nmsaa = " + std::to_string(msaa) + "\n") +
+                                 things;
+        for (std::size_t v = 0; v < views.size(); ++v) {
+            // one simulation at a time: each holds its own context, made current when it is opened
+            auto reused = test::renderedSimulation(text);
+            const Image red = look(*reused, closeUp);
+            ASSERT_GT(int(red.at(320, 240)[0]), int(red.at(320, 240)[1]) + 60) << "the box fills the view";
+            const Image img = look(*reused, views[v]);
+            reused.reset();
+            const Image expected = look(*test::renderedSimulation(text), views[v]);
+            int differ = 0;
+            for (std::size_t i = 0; i < img.rgba.size(); ++i) {
+                differ += std::abs(int(img.rgba[i]) - int(expected.rgba[i])) > 1;
+            }
+            EXPECT_EQ(differ, 0) << msaa << " samples, view " << v;
         }
     }
 }
