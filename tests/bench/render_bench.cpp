@@ -89,7 +89,14 @@ void BM_RenderCurtainFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderCurtainFrame)->Unit(benchmark::kMillisecond)->Iterations(40);
 
-void BM_RawEglCurtainFrame(benchmark::State& state) {
+/// How a raw EGL frame of the curtain shades its triangles.
+enum class RawShading {
+    Renderer, ///< with the renderer's own programs (no shadows): the difference is the renderer's work
+    OneColour ///< one constant colour: the least any frame of these triangles can cost
+};
+
+/// The curtain's triangles drawn by a raw EGL program into a target of `samples` a pixel and read back.
+void rawEglCurtain(benchmark::State& state, int samples, RawShading shading) {
     // the triangles the renderer draws: the cloth (with flat per-triangle normals) and a ground quad
     auto sim = settledDemo(false);
     std::vector<float> vertices;
@@ -108,7 +115,7 @@ void BM_RawEglCurtainFrame(benchmark::State& state) {
         vertices.insert(vertices.end(), {p[0], p[1], p[2], 0.f, 1.f, 0.f});
     }
     GlContext context;
-    Framebuffer target(1280, 720);
+    Framebuffer target(1280, 720, samples);
     // the renderer's own shader, so that the difference is the renderer's work, not its shading
     auto readText = [](const std::string& path) {
         std::ifstream in(path);
@@ -118,10 +125,15 @@ void BM_RawEglCurtainFrame(benchmark::State& state) {
     };
     const std::string shaders = assetDirectory() + "/shaders/";
     // the cloth with the mesh program, the ground with its own (mesh.frag with GROUND: the grid)
-    const unsigned program =
-        compileProgram(readText(shaders + "mesh.vert"), withLook("mesh.frag", "#define GAMMA\n"), "mesh");
-    const unsigned groundProgram = compileProgram(
-        readText(shaders + "mesh.vert"), withLook("mesh.frag", "#define GAMMA\n#define GROUND\n"), "ground");
+    const std::string oneColour =
+        "#version 300 es\nprecision highp float;\nuniform vec4 uColor;\nout vec4 fragColor;\n"
+        "void main() { fragColor = uColor; }\n";
+    const bool own = shading == RawShading::Renderer;
+    const unsigned program = compileProgram(
+        readText(shaders + "mesh.vert"), own ? withLook("mesh.frag", "#define GAMMA\n") : oneColour, "mesh");
+    const unsigned groundProgram =
+        compileProgram(readText(shaders + "mesh.vert"),
+                       own ? withLook("mesh.frag", "#define GAMMA\n#define GROUND\n") : oneColour, "ground");
     GLuint vao = 0, vbo = 0;
     glGenVertexArrays(1, &vao);
     glGenBuffers(1, &vbo);
@@ -166,7 +178,23 @@ void BM_RawEglCurtainFrame(benchmark::State& state) {
     glDeleteProgram(program);
     glDeleteProgram(groundProgram);
 }
+
+void BM_RawEglCurtainFrame(benchmark::State& state) {
+    rawEglCurtain(state, 1, RawShading::Renderer);
+}
 BENCHMARK(BM_RawEglCurtainFrame)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+// the same at 4 samples a pixel, resolved before it is read: what multisampling costs by itself, with the
+// renderer's shading and with none to speak of (the floor under any 4x frame of the curtain here)
+void BM_RawEglCurtainFrameMsaa(benchmark::State& state) {
+    rawEglCurtain(state, 4, RawShading::Renderer);
+}
+BENCHMARK(BM_RawEglCurtainFrameMsaa)->Unit(benchmark::kMillisecond)->Iterations(40);
+
+void BM_RawEglCurtainFrameMsaaOneColour(benchmark::State& state) {
+    rawEglCurtain(state, 4, RawShading::OneColour);
+}
+BENCHMARK(BM_RawEglCurtainFrameMsaaOneColour)->Unit(benchmark::kMillisecond)->Iterations(40);
 
 } // namespace
 } // namespace tumble
