@@ -4,7 +4,8 @@
 // work around the draw (normals, uploads, state), not its shading. Then the curtain and avalanche frames
 // as the demos have them (shadows, 4x multisampling) against the same frames with both off. The
 // renderer's frames report their two parts: draw_ms (drawn and waited for) and read_ms (the multisampled
-// image resolved, read back and turned top row first).
+// image resolved, read back and turned top row first). Last, the raw program at 4 samples a pixel, with the
+// renderer's shading and with one colour: the floor under any multisampled frame of the curtain here.
 //   build/tests/bench/tumble_bench --benchmark_filter=Render --benchmark_repetitions=5
 
 #include "app/gl_context.h"
