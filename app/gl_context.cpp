@@ -4,6 +4,7 @@
 #include <EGL/eglext.h>
 #include <GLES3/gl3.h>
 
+#include <cstdio>
 #include <cstring>
 #include <memory>
 
@@ -90,7 +91,20 @@ GlContext::~GlContext() {
     // name; the process ends soon after anyway
 }
 
-std::shared_ptr<void> openHeadlessContext(std::string& device) {
+void GlContext::makeCurrent() {
+    if (eglGetCurrentContext() == static_cast<EGLContext>(m_context)) {
+        return;
+    }
+    if (!eglMakeCurrent(static_cast<EGLDisplay>(m_display), EGL_NO_SURFACE, EGL_NO_SURFACE,
+                        static_cast<EGLContext>(m_context))) {
+        char code[16];
+        std::snprintf(code, sizeof code, "0x%04x", unsigned(eglGetError()));
+        throw RenderUnavailable(
+            std::string("EGL could not make the renderer's context current again (error ") + code + ")");
+    }
+}
+
+std::shared_ptr<RenderContext> openHeadlessContext(std::string& device) {
     auto context = std::make_shared<GlContext>();
     device = context->description();
     return context;

@@ -5,6 +5,8 @@
 // frames. When no EGL display can be had, construction throws RenderUnavailable with a message that
 // suggests --no-render.
 
+#include "engine/render_output.h"
+
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -16,16 +18,18 @@ struct RenderUnavailable : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-/// An EGL display and a current OpenGL ES 3 context with no surface.
-class GlContext {
+/// An EGL display and an OpenGL ES 3 context with no surface, current once made.
+class GlContext : public RenderContext {
 public:
     GlContext();
-    ~GlContext();
+    ~GlContext() override;
     GlContext(const GlContext&) = delete;
     GlContext& operator=(const GlContext&) = delete;
 
     /// "OpenGL ES 3.2 Mesa ... | llvmpipe ..." and the EGL platform used.
     const std::string& description() const { return m_description; }
+    /// Makes it current again (another context may have been made current since, in this thread).
+    void makeCurrent() override;
 
 private:
     void* m_display = nullptr;
@@ -35,6 +39,6 @@ private:
 
 /// Opens a headless context (GlContext) and makes it current; `device` gets its description. The holder
 /// keeps it open: this is what a run hands the renderer as RenderOutput::openContext.
-std::shared_ptr<void> openHeadlessContext(std::string& device);
+std::shared_ptr<RenderContext> openHeadlessContext(std::string& device);
 
 } // namespace tumble

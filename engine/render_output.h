@@ -11,6 +11,16 @@
 
 namespace tumble {
 
+/// A GL context a run opens for the renderer (app/gl_context.h's headless one), open while held. Several
+/// may be open in one thread, a simulation's each: the renderer makes its own current before it draws,
+/// reads back or frees anything.
+class RenderContext {
+public:
+    virtual ~RenderContext() = default;
+    /// Makes it the calling thread's current context (nothing to do when it is already).
+    virtual void makeCurrent() = 0;
+};
+
 /// Rendering requests of a run, and what came of them.
 struct RenderOutput {
     bool enabled = false;             ///< false: no GL context is made (--no-render)
@@ -23,7 +33,7 @@ struct RenderOutput {
     bool externalContext = false; ///< a GL ES 3 context is already current: draw with it, make none
     /// Otherwise the renderer opens one with this on its first frame (the run's choice: app/gl_context.h's
     /// headless EGL context); it fills the device description and keeps the context open while held.
-    std::function<std::shared_ptr<void>(std::string& device)> openContext;
+    std::function<std::shared_ptr<RenderContext>(std::string& device)> openContext;
     int width = 0, height = 0; ///< the image size; 0: the scene's [render] size
     bool cameraSet = false;    ///< eye and target below replace the scene's camera
     std::array<double, 3> eye{}, target{};

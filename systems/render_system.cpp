@@ -395,7 +395,9 @@ std::vector<float> cylinderMesh(int slices = 32) {
 
 /// Everything GL the renderer keeps between frames.
 struct Renderer {
-    std::shared_ptr<void> context; ///< the headless context the run opened for us (none in a window)
+    /// the headless context the run opened for us (none in a window), made current before each use: other
+    /// simulations in this thread may have made theirs current since
+    std::shared_ptr<RenderContext> context;
     std::unique_ptr<Framebuffer> target;
     GLuint meshProgram = 0, flatProgram = 0, particleProgram = 0;
     GLuint depthProgram = 0; ///< mesh.vert with a fragment shader that writes nothing: the shadow map's pass
@@ -470,6 +472,14 @@ struct Renderer {
     bool drawn = false;
     bool live = false; ///< a context is current and the objects below were made in it
 
+    /// Makes the context the objects below were made in current, when the run opened it for us (a
+    /// window's is current already).
+    void makeCurrent() const {
+        if (context) {
+            context->makeCurrent();
+        }
+    }
+
     Renderer() = default;
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
@@ -478,6 +488,14 @@ struct Renderer {
     ~Renderer() {
         if (!live) {
             return; // no context was had: nothing was made
+        }
+        try {
+            makeCurrent();
+        } catch (const std::exception&) {
+            // not freed in whichever context is current (names there are another's objects): they go with
+            // their own context, and the target's wrapper is let go unfreed (a destructor must not throw)
+            static_cast<void>(target.release());
+            return;
         }
         target.reset();
         smoke.release();
@@ -573,6 +591,7 @@ void setupFlatAttributes() {
 
 Renderer& renderer(World& world, const SceneDef& scene, RenderOutput& output) {
     if (auto* r = world.tryResource<Renderer>()) {
+        r->makeCurrent();
         return *r;
     }
     Renderer& r = world.setResource<Renderer>();
@@ -1737,6 +1756,7 @@ bool lastImage(World& world, int& width, int& height, std::vector<std::uint8_t>&
     if (!r || !r->drawn) {
         return false;
     }
+    r->makeCurrent();
     r->target->read(rgba);
     width = r->target->width();
     height = r->target->height();

@@ -169,7 +169,6 @@ TEST(RenderLook, NothingOfTheFrameBeforeIsLeftOnceTheSkyAndTheGroundAreDrawn) {
                                       "shadows = false\nmsaa = " + std::to_string(msaa) + "\n") +
                                  things;
         for (std::size_t v = 0; v < views.size(); ++v) {
-            // one simulation at a time: each holds its own context, made current when it is opened
             auto reused = test::renderedSimulation(text);
             const Image red = look(*reused, closeUp);
             ASSERT_GT(int(red.at(320, 240)[0]), int(red.at(320, 240)[1]) + 60) << "the box fills the view";

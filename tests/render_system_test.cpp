@@ -470,6 +470,47 @@ TEST(RenderSystem, ClosedShapesShowTheirNearSideWhateverCullingTheContextWasLeft
     }
 }
 
+TEST(RenderSystem, TwoSimulationsInOneThreadEachDrawInTheirOwnContext) {
+    // each simulation opens a context of its own. A red ball's (640 x 480) and a blue box's (320 x 240),
+    // drawn in turn, then the ball's once the box's simulation is gone: each image is the one its scene
+    // gives alone. Caught the ball drawn in the box's context, current since it was opened (the same names
+    // there are the box's objects: its smaller target), and once that was gone, in none (black); and the
+    // ball's objects freed in the box's context (the box's own, of the same names: black)
+    const std::string ball = sphereAt(0.0, 1.0);
+    std::string box = std::string(kCamera) +
+                      test::boxEntity("box", "[0.5, 0.0, 0.0]", "[0.8, 0.6, 0.4]", "[0.1, 0.2, 0.9]");
+    for (const auto& [from, to] :
+         {std::pair{"width = 640", "width = 320"}, std::pair{"height = 480", "height = 240"}}) {
+        box.replace(box.find(from), std::string(from).size(), to);
+    }
+    const Image ballAlone = renderOnce(ball), boxAlone = renderOnce(box);
+    const auto expectSame = [](const Image& img, const Image& alone, const std::string& what) {
+        ASSERT_EQ(img.rgba.size(), alone.rgba.size()) << what;
+        int differ = 0;
+        for (std::size_t i = 0; i < img.rgba.size(); ++i) {
+            differ += std::abs(int(img.rgba[i]) - int(alone.rgba[i])) > 1;
+        }
+        EXPECT_EQ(differ, 0) << what;
+    };
+    auto first = renderedSimulation(ball);
+    auto second = renderedSimulation(box);
+    for (int turn = 0; turn < 2; ++turn) {
+        first->runFrame();
+        expectSame(test::lastImageOf(*first), ballAlone, "the ball, turn " + std::to_string(turn));
+        second->runFrame();
+        expectSame(test::lastImageOf(*second), boxAlone, "the box, turn " + std::to_string(turn));
+    }
+    second.reset();
+    first->runFrame();
+    expectSame(test::lastImageOf(*first), ballAlone, "the ball, the box's simulation gone");
+    // and a simulation that goes frees its objects in its own context, not in the one current then
+    second = renderedSimulation(box);
+    second->runFrame();
+    first.reset();
+    second->runFrame();
+    expectSame(test::lastImageOf(*second), boxAlone, "the box, the ball's simulation gone");
+}
+
 TEST(RenderSystem, AParticleBurstShowsItsColour) {
     const Image img = renderOnce(std::string(kCamera) + R"(
 [[entity]]
