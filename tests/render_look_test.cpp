@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -145,8 +146,9 @@ TEST(RenderLook, WhatIsInFrontOfTheSkyHidesItInDepthOrder) {
 TEST(RenderLook, NothingOfTheFrameBeforeIsLeftOnceTheSkyAndTheGroundAreDrawn) {
     // with the sky gradient the colour is not cleared: the sky and the ground must cover every pixel. A
     // frame filled with a red box close up, then the camera turned to each view: over the ground looking
-    // level, straight down at it, from under it, at the sky alone; each image matches the same view drawn
-    // by a renderer that never drew the box close up (caught the sky's rows cut 5 rows short of the ground)
+    // level, straight down at it, from under it, at the sky alone, askew; each image matches the same view
+    // drawn by a renderer that never drew the box close up (caught the sky's rows cut 5 rows short of the
+    // ground)
     const std::string things =
         test::planeEntity("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "[0.5, 0.5, 0.5]") +
         test::boxEntity("box", "[0.0, 1.0, 0.0]", "[1.0, 1.0, 1.0]", "[0.9, 0.1, 0.1]");
