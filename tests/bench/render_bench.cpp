@@ -117,7 +117,8 @@ void rawEglCurtain(benchmark::State& state, int samples, RawShading shading) {
     }
     GlContext context;
     Framebuffer target(1280, 720, samples);
-    // the renderer's own shader, so that the difference is the renderer's work, not its shading
+    // the renderer's own shaders (the difference is then the renderer's work, not its shading) or one colour
+    // colour
     auto readText = [](const std::string& path) {
         std::ifstream in(path);
         std::ostringstream ss;
